@@ -1,0 +1,113 @@
+"""The `motionkit` command: thin wrappers over the stage functions."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from motionkit import __version__
+from motionkit.errors import MotionkitError
+
+ROBOT_EPILOG = """\
+Without --urdf the robot is iRonCub, built from the installed icub-models package. A user robot
+is its URDF plus a spec TOML (--spec) shaped like motionkit/robot/ironcub.toml: joint order,
+feet and sole corners, jet frames with their maximum thrust, standing posture."""
+
+
+def _add_robot_source(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--urdf", type=Path, help="a user robot's URDF (default: iRonCub)")
+    parser.add_argument("--spec", type=Path, help="the user robot's spec TOML (with --urdf)")
+
+
+def _robot_info(args: argparse.Namespace) -> None:
+    from motionkit.robot import load_robot
+
+    robot = load_robot(args.urdf, args.spec)
+    info = robot.info()
+    if args.json:
+        print(json.dumps(info, indent=2))
+        return
+    print(f"{info['name']}  (model {info['model_hash']}; {info['origin']})")
+    print(f"total mass {info['total_mass_kg']:.4f} kg; root {info['root']}, "
+          f"facing {info['forward_in_root']} in the root frame")  # fmt: skip
+    print(f"\n{len(info['joints'])} actuated joints      lower [rad]  upper [rad]  vel [rad/s]  "
+          "effort [N m]")  # fmt: skip
+    for i, joint in enumerate(info["joints"]):
+        print(f"  {i:2d} {joint['name']:<18} {joint['lower_rad']:11.3f}  {joint['upper_rad']:11.3f}"
+              f"  {joint['velocity_rad_s']:11.2f}  {joint['effort_nm']:12.1f}")  # fmt: skip
+    print(f"locked at zero: {', '.join(info['locked_joints']) or 'none'}")
+    print(f"\n{len(info['jets'])} jets (thrust along -z of the frame)")
+    for jet in info["jets"]:
+        print(f"  {jet['name']:<12} frame {jet['frame']:<22} T_max {jet['t_max_n']:.0f} N")
+    print("\nfeet")
+    for foot in info["feet"]:
+        print(f"  {foot['side']:<6} sole {foot['sole']}, corners {', '.join(foot['corners'])}")
+    print(f"elbows: {', '.join(info['elbows'])}")
+
+
+def _robot_export(args: argparse.Namespace) -> None:
+    from motionkit.robot import load_robot
+
+    robot = load_robot(args.urdf, args.spec)  # validated before anything is written
+    text = robot.urdf_text if args.format == "urdf" else robot.mjcf_text
+    out = Path(args.out)
+    path = out / f"{robot.name}.{'urdf' if args.format == 'urdf' else 'xml'}"
+    out.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_suffix(path.suffix + ".tmp")
+    temporary.write_text(text)
+    temporary.replace(path)
+    print(f"wrote {path} ({args.format}, model {robot.model_hash})")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="motionkit",
+        description="Motion priors for a flying humanoid (iRonCub): mocap retargeting, flight "
+        "trajectory optimisation, jet identification, MCAP datasets and an AMP trainer.",
+    )
+    parser.add_argument("--version", action="version", version=f"motionkit {__version__}")
+    stages = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    robot = stages.add_parser(
+        "robot", help="inspect and export the robot model", description="The robot model "
+        "every stage shares.", epilog=ROBOT_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )  # fmt: skip
+    robot_commands = robot.add_subparsers(dest="robot_command", required=True, metavar="ACTION")
+    info = robot_commands.add_parser(
+        "info", help="joints, limits, mass, jets and frames", epilog=ROBOT_EPILOG
+    )
+    _add_robot_source(info)
+    info.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    info.set_defaults(handler=_robot_info)
+    export = robot_commands.add_parser(
+        "export", help="write the model as URDF or MJCF", epilog=ROBOT_EPILOG,
+        description="Write the robot as URDF (meshes from the installed icub-models) or MJCF "
+        "(free base on a floor, box soles, PD position actuators, one thrust actuator per jet, "
+        "keyframe 'stand').",
+    )  # fmt: skip
+    _add_robot_source(export)
+    export.add_argument("--format", choices=("urdf", "mjcf"), required=True)
+    export.add_argument("--out", type=Path, required=True, help="output folder")
+    export.set_defaults(handler=_robot_export)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    if hasattr(signal, "SIGPIPE"):  # `motionkit ... | head` ends quietly
+        signal.signal(signal.SIGPIPE, signal.SIG_DFL)
+    args = build_parser().parse_args(argv)
+    try:
+        args.handler(args)
+    except MotionkitError as exc:
+        print(f"motionkit: error: {exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""Jet thrust identification: bench logs, LSTM model, evaluation, export (issue 6)."""

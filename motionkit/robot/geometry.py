@@ -1,0 +1,49 @@
+"""Rigid transforms as 4x4 homogeneous matrices; URDF roll-pitch-yaw; quaternions (w, x, y, z).
+
+Quaternion order everywhere in motionkit is scalar first: (w, x, y, z), as in MuJoCo.
+"""
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
+
+Array = NDArray[np.float64]
+
+
+def rpy_to_matrix(rpy: Array) -> Array:
+    """URDF rpy: fixed-axis rotations about x, then y, then z (R = Rz Ry Rx)."""
+    return Rotation.from_euler("xyz", rpy).as_matrix()
+
+
+def matrix_to_rpy(rotation: Array) -> Array:
+    return Rotation.from_matrix(rotation).as_euler("xyz")
+
+
+def matrix_to_quat(rotation: Array) -> Array:
+    """Rotation matrix to a unit quaternion (w, x, y, z) with w >= 0."""
+    x, y, z, w = Rotation.from_matrix(rotation).as_quat()
+    quat = np.array([w, x, y, z])
+    return quat if w >= 0 else -quat
+
+
+def make_transform(xyz: Array | None = None, rpy: Array | None = None) -> Array:
+    transform = np.eye(4)
+    if rpy is not None:
+        transform[:3, :3] = rpy_to_matrix(np.asarray(rpy, dtype=float))
+    if xyz is not None:
+        transform[:3, 3] = xyz
+    return transform
+
+
+def invert(transform: Array) -> Array:
+    inverse = np.eye(4)
+    inverse[:3, :3] = transform[:3, :3].T
+    inverse[:3, 3] = -transform[:3, :3].T @ transform[:3, 3]
+    return inverse
+
+
+def axis_angle(axis: Array, angle: float) -> Array:
+    """Homogeneous rotation about a unit axis through the origin."""
+    transform = np.eye(4)
+    transform[:3, :3] = Rotation.from_rotvec(np.asarray(axis) * angle).as_matrix()
+    return transform

@@ -1,0 +1,1 @@
+"""Centroidal trajectory optimisation with contacts and jets, CasADi + IPOPT (issue 5)."""

@@ -1,0 +1,1 @@
+"""The viser browser viewer (issue 8)."""
