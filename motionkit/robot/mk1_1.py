@@ -40,7 +40,7 @@ class AddedLink:
 
 # The Mk1_1 file gives l/r_elbow_1 (0.861 kg, elbow plus jet mount) a non-positive-definite
 # inertia. We keep its mass and centre of mass and use a uniform solid box of 0.18 x 0.06 x
-# 0.06 m (elbow-to-jet mount along x) instead: ixx = m (b^2 + c^2) / 12, iyy = izz = m (a^2 + c^2) / 12.
+# 0.06 m (elbow-to-jet mount along x) instead: ixx = m (b^2 + c^2) / 12, and so on.
 ELBOW_MOUNT_BOX = (0.18, 0.06, 0.06)
 
 

@@ -146,7 +146,8 @@ def _prepare(model: RobotModel, spec: RobotSpec) -> tuple[RobotModel, tuple[str,
             continue
         if not joint.lower < joint.upper:
             raise RobotModelError(
-                f"{model.source}: joint '{name}' has lower limit {joint.lower} >= upper {joint.upper}"
+                f"{model.source}: joint '{name}' has lower limit {joint.lower} >= "
+                f"upper {joint.upper}"
             )
         if not 0 < joint.velocity < limits.placeholder:
             joint.velocity = limits.default_velocity
