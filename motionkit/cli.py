@@ -32,13 +32,19 @@ def _robot_info(args: argparse.Namespace) -> None:
         print(json.dumps(info, indent=2))
         return
     print(f"{info['name']}  (model {info['model_hash']}; {info['origin']})")
-    print(f"total mass {info['total_mass_kg']:.4f} kg; root {info['root']}, "
-          f"facing {info['forward_in_root']} in the root frame")  # fmt: skip
-    print(f"\n{len(info['joints'])} actuated joints      lower [rad]  upper [rad]  vel [rad/s]  "
-          "effort [N m]")  # fmt: skip
+    print(
+        f"total mass {info['total_mass_kg']:.4f} kg; root {info['root']}, "
+        f"facing {info['forward_in_root']} in the root frame"
+    )
+    print(
+        f"\n{len(info['joints'])} actuated joints      lower [rad]  upper [rad]  vel [rad/s]  "
+        "effort [N m]"
+    )
     for i, joint in enumerate(info["joints"]):
-        print(f"  {i:2d} {joint['name']:<18} {joint['lower_rad']:11.3f}  {joint['upper_rad']:11.3f}"
-              f"  {joint['velocity_rad_s']:11.2f}  {joint['effort_nm']:12.1f}")  # fmt: skip
+        print(
+            f"  {i:2d} {joint['name']:<18} {joint['lower_rad']:11.3f}  {joint['upper_rad']:11.3f}"
+            f"  {joint['velocity_rad_s']:11.2f}  {joint['effort_nm']:12.1f}"
+        )
     print(f"locked at zero: {', '.join(info['locked_joints']) or 'none'}")
     print(f"\n{len(info['jets'])} jets (thrust along -z of the frame)")
     for jet in info["jets"]:
@@ -73,10 +79,12 @@ def build_parser() -> argparse.ArgumentParser:
     stages = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     robot = stages.add_parser(
-        "robot", help="inspect and export the robot model", description="The robot model "
-        "every stage shares.", epilog=ROBOT_EPILOG,
+        "robot",
+        help="inspect and export the robot model",
+        description="The robot model every stage shares.",
+        epilog=ROBOT_EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
-    )  # fmt: skip
+    )
     robot_commands = robot.add_subparsers(dest="robot_command", required=True, metavar="ACTION")
     info = robot_commands.add_parser(
         "info", help="joints, limits, mass, jets and frames", epilog=ROBOT_EPILOG
@@ -85,11 +93,13 @@ def build_parser() -> argparse.ArgumentParser:
     info.add_argument("--json", action="store_true", help="print JSON instead of a table")
     info.set_defaults(handler=_robot_info)
     export = robot_commands.add_parser(
-        "export", help="write the model as URDF or MJCF", epilog=ROBOT_EPILOG,
+        "export",
+        help="write the model as URDF or MJCF",
+        epilog=ROBOT_EPILOG,
         description="Write the robot as URDF (meshes from the installed icub-models) or MJCF "
         "(free base on a floor, box soles, PD position actuators, one thrust actuator per jet, "
         "keyframe 'stand').",
-    )  # fmt: skip
+    )
     _add_robot_source(export)
     export.add_argument("--format", choices=("urdf", "mjcf"), required=True)
     export.add_argument("--out", type=Path, required=True, help="output folder")

@@ -48,8 +48,12 @@ def build_ironcub_model(keep_frames: tuple[str, ...] = ()) -> RobotModel:
         model.joints[added.joint] = Joint(
             added.joint, "fixed", added.parent, name, make_transform(added.xyz, added.rpy)
         )
-    for jet in ("chest_l_jet_turbine", "chest_r_jet_turbine", "l_arm_jet_turbine",
-                "r_arm_jet_turbine"):  # fmt: skip
+    for jet in (
+        "chest_l_jet_turbine",
+        "chest_r_jet_turbine",
+        "l_arm_jet_turbine",
+        "r_arm_jet_turbine",
+    ):
         model.links[jet].visuals = [_jet_cylinder()]
     _drop_massless_leaves(model, keep=set(keep_frames))
     _carry_shapes(model, poses_before)
@@ -78,9 +82,11 @@ def _drop_massless_leaves(model: RobotModel, keep: set[str]) -> None:
         doomed = [
             name
             for name, link in model.links.items()
-            if link.inertial is None and not model.child_joints(name) and name not in keep
+            if link.inertial is None
+            and not model.child_joints(name)
+            and name not in keep
             and name != model.root
-        ]  # fmt: skip
+        ]
         if not doomed:
             return
         for name in doomed:

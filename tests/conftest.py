@@ -1,0 +1,111 @@
+"""Shared fixtures: a private cache, the ../shared reference (skips if absent), a toy robot."""
+
+from pathlib import Path
+
+import pytest
+
+SHARED = Path(__file__).resolve().parents[1] / ".." / "shared"
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _private_cache(tmp_path_factory: pytest.TempPathFactory) -> None:
+    mp = pytest.MonkeyPatch()
+    mp.setenv("MOTIONKIT_CACHE", str(tmp_path_factory.mktemp("motionkit-cache")))
+    yield
+    mp.undo()
+
+
+@pytest.fixture(scope="session")
+def reference_urdf() -> Path:
+    """The public iRonCub-Mk1_1 URDF from ../shared/reference, or skip."""
+    path = SHARED / "reference" / "ironcub-mk1_1" / "model.urdf"
+    if not path.exists():
+        pytest.skip("../shared/reference is not present")
+    return path
+
+
+def _link(name: str, mass: float | None = None, size: float = 0.1) -> str:
+    if mass is None:
+        return f'<link name="{name}"/>'
+    inertia = mass * size * size / 6  # uniform cube of side `size`
+    return (
+        f'<link name="{name}"><inertial><origin xyz="0 0 0"/><mass value="{mass}"/>'
+        f'<inertia ixx="{inertia}" iyy="{inertia}" izz="{inertia}" ixy="0" ixz="0" iyz="0"/>'
+        "</inertial></link>"
+    )
+
+
+def _joint(
+    name: str, parent: str, child: str, xyz: str, kind: str = "revolute", rpy: str = "0 0 0"
+) -> str:
+    motion = '<axis xyz="0 1 0"/><limit lower="-1.5" upper="1.5" velocity="10" effort="50"/>'
+    return (
+        f'<joint name="{name}" type="{kind}"><origin xyz="{xyz}" rpy="{rpy}"/>'
+        f'<parent link="{parent}"/><child link="{child}"/>'
+        f"{motion if kind == 'revolute' else ''}</joint>"
+    )
+
+
+def toy_biped_urdf(elbow_mass: float = 0.5) -> str:
+    """A small jet-powered biped (10.5 kg): pelvis, two 3-joint legs, one elbow joint, two jets."""
+    parts = [_link("pelvis", 4.0, 0.2), _link("arm", 0.5), _link("elbow", elbow_mass)]
+    parts.append(_joint("shoulder", "pelvis", "arm", "0 0.15 0.1"))
+    parts.append(_joint("elbow_joint", "arm", "elbow", "0 0 -0.2"))
+    parts.append(_link("jet_a", 1.0))
+    parts.append(
+        _joint("jet_a_fixed", "pelvis", "jet_a", "0 0.1 0", "fixed", "3.14159265358979 0 0")
+    )
+    parts.append(_link("jet_b", 1.0))
+    parts.append(
+        _joint("jet_b_fixed", "pelvis", "jet_b", "0 -0.1 0", "fixed", "3.14159265358979 0 0")
+    )
+    for side, y in (("l", 0.1), ("r", -0.1)):
+        parts += [
+            _link(f"{side}_thigh", 1.0),
+            _link(f"{side}_shin", 0.5),
+            _link(f"{side}_foot", 0.5),
+        ]
+        parts.append(_joint(f"{side}_hip", "pelvis", f"{side}_thigh", f"0 {y} -0.1"))
+        parts.append(_joint(f"{side}_knee", f"{side}_thigh", f"{side}_shin", "0 0 -0.3"))
+        parts.append(_joint(f"{side}_ankle", f"{side}_shin", f"{side}_foot", "0 0 -0.3"))
+        sole = _joint(f"{side}_sole_fixed", f"{side}_foot", f"{side}_sole", "0 0 -0.05", "fixed")
+        parts += [_link(f"{side}_sole"), sole]
+        for k, (cx, cy) in enumerate(((0.1, 0.04), (0.1, -0.04), (-0.05, -0.04), (-0.05, 0.04))):
+            corner = f"{side}_sole_{k + 1}"
+            parts += [
+                _link(corner),
+                _joint(f"{corner}_fixed", f"{side}_sole", corner, f"{cx} {cy} 0", "fixed"),
+            ]
+    return '<robot name="toy">' + "".join(parts) + "</robot>"
+
+
+TOY_SPEC = """
+name = "toy"
+root = "pelvis"
+forward = [1.0, 0.0, 0.0]
+joints = ["shoulder", "l_hip", "l_knee", "l_ankle", "r_hip", "r_knee", "r_ankle"]
+elbows = ["elbow"]
+[feet.left]
+sole = "l_sole"
+corners = ["l_sole_1", "l_sole_2", "l_sole_3", "l_sole_4"]
+[feet.right]
+sole = "r_sole"
+corners = ["r_sole_1", "r_sole_2", "r_sole_3", "r_sole_4"]
+[[jets]]
+name = "a"
+frame = "jet_a"
+t_max = 100.0
+[[jets]]
+name = "b"
+frame = "jet_b"
+t_max = 100.0
+"""
+
+
+@pytest.fixture
+def toy_robot_files(tmp_path: Path) -> tuple[Path, Path]:
+    """A valid user robot: URDF and spec TOML written to a temporary folder."""
+    urdf, spec = tmp_path / "toy.urdf", tmp_path / "toy.toml"
+    urdf.write_text(toy_biped_urdf())
+    spec.write_text(TOY_SPEC)
+    return urdf, spec
