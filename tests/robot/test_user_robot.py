@@ -8,7 +8,7 @@ import pytest
 from conftest import TOY_SPEC, toy_biped_urdf
 
 from motionkit.errors import RobotModelError
-from motionkit.robot import Robot, RobotSpec, load_robot
+from motionkit.robot import Robot, RobotSpec, cache_dir, load_robot
 from motionkit.robot.urdf import inertia_problem, load_urdf, parse_urdf
 
 
@@ -95,3 +95,17 @@ def test_public_mk1_1_urdf_is_refused_for_its_elbow_inertia(reference_urdf: Path
     spec = replace(RobotSpec.builtin("ironcub"), root=model.root)  # its root is base_link
     with pytest.raises(RobotModelError, match=r"link '[lr]_elbow_1' has an invalid inertia"):
         Robot(model, spec, origin="public Mk1_1 URDF")
+
+
+def test_exports_are_cached_by_content_hash(toy_robot_files: tuple[Path, Path]) -> None:
+    robot = load_robot(*toy_robot_files)
+    path = robot.mjcf_path()
+    assert path.parent == cache_dir() / "robots" / f"toy-{robot.model_hash}"
+    assert path.read_text() == robot.mjcf_text
+    stamp = path.stat().st_mtime_ns
+    assert load_robot(*toy_robot_files).mjcf_path() == path  # same content, same file, untouched
+    assert path.stat().st_mtime_ns == stamp
+    other_urdf = toy_robot_files[0].with_name("heavier.urdf")
+    other_urdf.write_text(toy_biped_urdf(elbow_mass=0.7))
+    other = load_robot(other_urdf, toy_robot_files[1])
+    assert other.model_hash != robot.model_hash and other.mjcf_path() != path
