@@ -69,13 +69,11 @@ class _Writer:
 
     def child(self, joint: Joint, body: ET.Element, offset: Array) -> None:
         child_offset = offset @ joint.origin
-        if joint.type == "fixed":
-            if self.model.links[joint.child].inertial is None:
-                self.link(joint.child, body, child_offset)  # a frame: a site in this body
-                return
-            child = ET.SubElement(body, "body", name=joint.child, **_pose_attrs(child_offset))
-        else:
-            child = ET.SubElement(body, "body", name=joint.child, **_pose_attrs(child_offset))
+        if joint.type == "fixed" and self.model.links[joint.child].inertial is None:
+            self.link(joint.child, body, child_offset)  # a massless frame: a site in this body
+            return
+        child = ET.SubElement(body, "body", name=joint.child, **_pose_attrs(child_offset))
+        if joint.type != "fixed":
             attrs = {"name": joint.name, "axis": _fmt(joint.axis)}
             attrs["type"] = "slide" if joint.type == "prismatic" else "hinge"
             if joint.type != "continuous":

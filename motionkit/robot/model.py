@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property, lru_cache
 from pathlib import Path
 from typing import Any
@@ -66,7 +66,7 @@ class Robot:
     def model_hash(self) -> str:
         """Content hash of the robot (URDF text and spec), the key of every cached export."""
         digest = hashlib.sha256(self.urdf_text.encode())
-        digest.update(repr(self.spec).encode())
+        digest.update(repr(replace(self.spec, source="")).encode())
         return digest.hexdigest()[:16]
 
     @cached_property
