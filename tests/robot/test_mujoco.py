@@ -124,3 +124,14 @@ def test_thrust_of_1_2_weights_lifts_with_0_2_g(mj) -> None:
     for _ in range(int(0.4 / dt)):
         mujoco.mj_step(model, data)
     assert data.qpos[2] - start > 0.1  # about 0.5 a t^2 = 0.19 m in 0.4 s
+
+
+def test_sole_boxes_match_the_sole_rectangles(mj) -> None:
+    model, data = mj
+    mujoco.mj_resetDataKeyframe(model, data, model.key("stand").id)
+    mujoco.mj_forward(model, data)
+    for side in ("left", "right"):
+        length, width, height = 2 * model.geom(f"{side}_sole").size
+        assert length == pytest.approx(0.126, abs=3e-3)  # reference: 0.126 m x 0.059 m
+        assert width == pytest.approx(0.059, abs=2e-3)
+        assert data.geom(f"{side}_sole").xpos[2] == pytest.approx(height / 2, abs=1e-9)
