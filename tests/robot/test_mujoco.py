@@ -134,4 +134,6 @@ def test_sole_boxes_match_the_sole_rectangles(mj) -> None:
         length, width, height = 2 * model.geom(f"{side}_sole").size
         assert length == pytest.approx(0.126, abs=3e-3)  # reference: 0.126 m x 0.059 m
         assert width == pytest.approx(0.059, abs=2e-3)
-        assert data.geom(f"{side}_sole").xpos[2] == pytest.approx(height / 2, abs=1e-9)
+        assert data.geom(f"{side}_sole").xpos[2] == pytest.approx(
+            height / 2, abs=1e-4
+        )  # on the floor
