@@ -41,6 +41,9 @@ class PdGain:
     kd: float
 
 
+PD_FIELDS = (("joints", str), ("kp", float), ("kd", float))
+
+
 @dataclass(frozen=True)
 class LimitDefaults:
     placeholder: float = 1000.0
@@ -144,7 +147,10 @@ class RobotSpec:
             if jet.t_max <= 0:
                 raise RobotModelError(f"{source}: jet '{jet.name}' needs t_max > 0 N")
         sim = data.get("simulation", {})
-        pd = tuple(PdGain(g["joints"], float(g["kp"]), float(g["kd"])) for g in sim.get("pd", []))
+        pd = tuple(
+            PdGain(*(need(g, k, t, f"simulation.pd[{i}].") for k, t in PD_FIELDS))
+            for i, g in enumerate(sim.get("pd", []))
+        )
         simulation = _table(
             SimulationSpec,
             {k: float(v) for k, v in sim.items() if k != "pd"} | ({"pd": pd} if pd else {}),

@@ -81,6 +81,11 @@ def _write(tmp_path: Path, urdf: str, spec: str = TOY_SPEC) -> tuple[Path, Path]
         (toy_biped_urdf(), TOY_SPEC.replace("t_max = 100.0\n", "", 1), "missing 'jets[0].t_max'"),
         (toy_biped_urdf(), TOY_SPEC + "[limits]\nvelocity = 3\n", "unknown keys ['velocity']"),
         (toy_biped_urdf(), "name = [", "not valid TOML"),
+        (
+            toy_biped_urdf(),
+            TOY_SPEC + '[simulation]\npd = [{ joints = "*", kp = 1.0 }]\n',
+            "missing 'simulation.pd[0].kd'",
+        ),
         ("<robot name='x'><link name='a'>", TOY_SPEC, "not valid XML"),
         ("<robot name='x'><link name='a'/><link name='b'/></robot>", TOY_SPEC, "one root link"),
     ],
