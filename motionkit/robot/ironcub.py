@@ -48,12 +48,7 @@ def build_ironcub_model(keep_frames: tuple[str, ...] = ()) -> RobotModel:
         model.joints[added.joint] = Joint(
             added.joint, "fixed", added.parent, name, make_transform(added.xyz, added.rpy)
         )
-    for jet in (
-        "chest_l_jet_turbine",
-        "chest_r_jet_turbine",
-        "l_arm_jet_turbine",
-        "r_arm_jet_turbine",
-    ):
+    for jet in (name for name in mk1_1.ADDED_LINKS if name.endswith("_jet_turbine")):
         model.links[jet].visuals = [_jet_cylinder()]
     _drop_massless_leaves(model, keep=set(keep_frames))
     _carry_shapes(model, poses_before)

@@ -16,7 +16,7 @@ from motionkit import __version__
 from motionkit.errors import RobotModelError
 from motionkit.robot.geometry import Array, matrix_to_quat
 from motionkit.robot.spec import THRUST_AXIS, FootSpec
-from motionkit.robot.urdf import Joint, RobotModel
+from motionkit.robot.urdf import Inertial, Joint, RobotModel
 
 if TYPE_CHECKING:
     from motionkit.robot.model import Robot
@@ -56,9 +56,7 @@ class _Writer:
         """Write link `name` into `body`, whose frame is `offset` away from the link frame."""
         link = self.model.links[name]
         if link.inertial is not None:
-            self.inertial(
-                body, offset, link.inertial.origin, link.inertial.mass, link.inertial.inertia
-            )
+            self.inertial(body, offset, link.inertial)
         ET.SubElement(body, "site", name=name, **_pose_attrs(offset))
         self.frame_in_body[name] = (body.get("name", ""), offset)
         children = sorted(
@@ -83,15 +81,15 @@ class _Writer:
         self.link(joint.child, child, np.eye(4))
 
     @staticmethod
-    def inertial(body: ET.Element, offset: Array, com: Array, mass: float, inertia: Array) -> None:
-        frame = offset @ com
+    def inertial(body: ET.Element, offset: Array, inertial: Inertial) -> None:
+        frame = offset @ inertial.origin
         rotation = frame[:3, :3]
-        full = rotation @ inertia @ rotation.T
+        full = rotation @ inertial.inertia @ rotation.T
         ET.SubElement(
             body,
             "inertial",
             pos=_fmt(frame[:3, 3]),
-            mass=repr(float(mass)),
+            mass=repr(float(inertial.mass)),
             fullinertia=_fmt(
                 [full[0, 0], full[1, 1], full[2, 2], full[0, 1], full[0, 2], full[1, 2]]
             ),
