@@ -11,6 +11,7 @@ from pathlib import Path
 
 from motionkit import __version__
 from motionkit.errors import MotionkitError
+from motionkit.outputs import write_text_atomic
 
 ROBOT_EPILOG = """\
 Without --urdf the robot is iRonCub, built from the installed icub-models package. A user robot
@@ -62,10 +63,7 @@ def _robot_export(args: argparse.Namespace) -> None:
     text = robot.urdf_text if args.format == "urdf" else robot.mjcf_text
     out = Path(args.out)
     path = out / f"{robot.name}.{'urdf' if args.format == 'urdf' else 'xml'}"
-    out.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_suffix(path.suffix + ".tmp")
-    temporary.write_text(text)
-    temporary.replace(path)
+    write_text_atomic(path, text)
     print(f"wrote {path} ({args.format}, model {robot.model_hash})")
 
 

@@ -7,3 +7,7 @@ class MotionkitError(Exception):
 
 class RobotModelError(MotionkitError):
     """A robot description (URDF or spec TOML) lacks something motionkit needs or is invalid."""
+
+
+class DatasetError(MotionkitError):
+    """A motion clip or dataset is malformed, corrupt, or does not match its robot."""

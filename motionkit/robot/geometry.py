@@ -47,3 +47,31 @@ def axis_angle(axis: Array, angle: float) -> Array:
     transform = np.eye(4)
     transform[:3, :3] = Rotation.from_rotvec(np.asarray(axis) * angle).as_matrix()
     return transform
+
+
+# -- quaternion arrays (..., 4) in (w, x, y, z) order ------------------------------------------
+def to_rotation(quats: Array) -> Rotation:
+    """scipy Rotation from (N, 4) quaternions in (w, x, y, z) order."""
+    return Rotation.from_quat(np.asarray(quats, dtype=float)[..., [1, 2, 3, 0]])
+
+
+def from_rotation(rotation: Rotation) -> Array:
+    """(N, 4) quaternions (w, x, y, z) with w >= 0 from a scipy Rotation."""
+    quats = rotation.as_quat()[..., [3, 0, 1, 2]]
+    return np.where(quats[..., :1] < 0, -quats, quats)
+
+
+def quat_rotate_inverse(quats: Array, vectors: Array) -> Array:
+    """World vectors (N, 3) expressed in the frames whose orientations are quats (N, 4)."""
+    return to_rotation(quats).inv().apply(vectors)
+
+
+def angular_velocity(time: Array, quats: Array) -> Array:
+    """World-frame angular velocity (N, 3) of an orientation track by central differences of
+    the relative rotations (one-sided at the ends)."""
+    rotation = to_rotation(quats)
+    steps = (rotation[1:] * rotation[:-1].inv()).as_rotvec() / np.diff(time)[:, None]
+    omega = np.empty((len(time), 3))
+    omega[0], omega[-1] = steps[0], steps[-1]
+    omega[1:-1] = 0.5 * (steps[1:] + steps[:-1])
+    return omega

@@ -110,6 +110,7 @@ class Robot:
                 {"side": f.side, "sole": f.sole, "corners": list(f.corners)} for f in self.spec.feet
             ],
             "elbows": list(self.spec.elbows),
+            "hands": list(self.spec.hands),
             "frames": list(self.spec.frames),
         }
 

@@ -75,6 +75,8 @@ class RobotSpec:
     feet: tuple[FootSpec, ...]
     jets: tuple[JetSpec, ...]
     elbows: tuple[str, ...] = ()
+    # Arm end effectors of the AMP features; the elbows when none are named.
+    hands: tuple[str, ...] = ()
     # The standing posture: joint angles [rad]; joints not named stand at 0.
     posture: tuple[tuple[str, float], ...] = ()
     limits: LimitDefaults = LimitDefaults()
@@ -83,11 +85,16 @@ class RobotSpec:
 
     @property
     def frames(self) -> tuple[str, ...]:
-        """Every frame the spec names: root, soles, sole corners, elbows, jets."""
+        """Every frame the spec names: root, soles, sole corners, elbows, hands, jets."""
         names = [self.root]
         for foot in self.feet:
             names += [foot.sole, *foot.corners]
-        return (*names, *self.elbows, *(jet.frame for jet in self.jets))
+        return (*names, *self.elbows, *self.hands, *(jet.frame for jet in self.jets))
+
+    @property
+    def end_effectors(self) -> tuple[str, ...]:
+        """Frames whose positions relative to the base enter the AMP features: soles, hands."""
+        return (*(foot.sole for foot in self.feet), *(self.hands or self.elbows))
 
     def posture_angles(self) -> dict[str, float]:
         angles = dict.fromkeys(self.joints, 0.0)
@@ -164,6 +171,7 @@ class RobotSpec:
             feet=feet,
             jets=jets,
             elbows=tuple(data.get("elbows", [])),
+            hands=tuple(data.get("hands", [])),
             posture=tuple((k, float(v)) for k, v in data.get("posture", {}).items()),
             limits=_table(
                 LimitDefaults,

@@ -1,0 +1,456 @@
+"""One clip = one MCAP file: `write(path, trajectory)` and `read(path) -> Trajectory`.
+
+File layout (MCAP, zstd-compressed chunks, indexed, with CRCs):
+- /motion: `motionkit.MotionChunk` messages (protobuf), one per block of frames (about one
+  second), log time = the block's first frame time;
+- /tf: `foxglove.FrameTransforms` at `tf_rate` Hz: world -> root link and every joint of the
+  robot, so that Foxglove shows the robot move;
+- metadata record `motionkit`: robot, model hash, names, rate, kind, source, generator, config
+  and metrics (string map; nested values as JSON);
+- attachment `<robot>.urdf`: the robot description the motion was made for.
+"""
+
+from __future__ import annotations
+
+import json
+import struct
+import zlib
+from dataclasses import asdict
+from io import BytesIO
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+from mcap.records import Chunk
+from mcap.stream_reader import CRCValidationError
+from mcap.writer import CompressionType, IndexType, Writer
+
+from motionkit import __version__
+from motionkit.dataset.messages import (
+    MOTION_SCHEMA,
+    TF_SCHEMA,
+    decode_chunk,
+    encode_chunk,
+    encode_frame_transforms,
+    motion_schema,
+    tf_schema,
+)
+from motionkit.dataset.trajectory import ARRAY_FIELDS, Metadata, Source, Trajectory
+from motionkit.errors import DatasetError
+from motionkit.outputs import atomic_output
+from motionkit.robot import Robot
+from motionkit.robot.geometry import from_rotation, to_rotation
+from motionkit.robot.kinematics import joint_transforms
+
+FORMAT = "motionkit-clip/1"
+METADATA_NAME = "motionkit"
+MOTION_TOPIC = "/motion"
+TF_TOPIC = "/tf"
+WORLD_FRAME = "world"
+_NS = 1_000_000_000
+_MAGIC = b"\x89MCAP0\r\n"
+_FOOTER = 1 + 8 + 8 + 8 + 4  # opcode, length, summary_start, summary_offset_start, summary_crc
+_DATA_END = 1 + 8 + 4  # opcode, length, data_section_crc
+
+
+# -- writing ------------------------------------------------------------------------------------
+def write(path: Path | str, trajectory: Trajectory, robot: Robot, *, tf_rate: float = 15.0) -> Path:
+    """Write a clip atomically (temporary file, then rename); tf_rate 0 leaves /tf out."""
+    check_against_robot(trajectory, robot)
+    path = Path(path)
+    with atomic_output(path) as stream:
+        _write_mcap(stream, trajectory, robot, tf_rate)
+    return path
+
+
+def check_against_robot(trajectory: Trajectory, robot: Robot) -> None:
+    meta = trajectory.metadata
+    expected = {
+        "joint_names": robot.joint_names,
+        "jet_names": tuple(jet.name for jet in robot.spec.jets),
+        "foot_names": tuple(foot.side for foot in robot.spec.feet),
+    }
+    for name, names in expected.items():
+        if getattr(trajectory, name) != names:
+            raise DatasetError(
+                f"{name} {list(getattr(trajectory, name))} differ from robot '{robot.name}': "
+                f"{list(names)}"
+            )
+    if (meta.robot, meta.robot_hash) != (robot.name, robot.model_hash):
+        raise DatasetError(
+            f"the clip is for robot {meta.robot} (model {meta.robot_hash}), not {robot.name} "
+            f"(model {robot.model_hash})"
+        )
+
+
+def _write_mcap(stream: IO[bytes], trajectory: Trajectory, robot: Robot, tf_rate: float) -> None:
+    writer = Writer(
+        stream,
+        compression=CompressionType.ZSTD,
+        index_types=IndexType.ALL,
+        enable_data_crcs=True,
+    )
+    writer.start(profile="", library=f"motionkit {__version__}")
+    names = {
+        "joint_names": json.dumps(trajectory.joint_names),
+        "jet_names": json.dumps(trajectory.jet_names),
+        "foot_names": json.dumps(trajectory.foot_names),
+    }
+    motion = writer.register_channel(
+        MOTION_TOPIC,
+        "protobuf",
+        writer.register_schema(MOTION_SCHEMA, "protobuf", motion_schema()),
+        metadata=names
+        | {
+            "layout": "frame-major arrays; quaternion w,x,y,z; base velocities in the world frame",
+            "max_block_seconds": repr(_block_seconds(trajectory)),
+        },
+    )
+    time = trajectory.time
+    block = _block_frames(trajectory)
+    tf_messages: list[tuple[int, bytes]] = []
+    if tf_rate > 0:
+        tf = writer.register_channel(
+            TF_TOPIC, "protobuf", writer.register_schema(TF_SCHEMA, "protobuf", tf_schema())
+        )
+        tf_messages = _frame_transforms(trajectory, robot, tf_rate)
+    arrays = trajectory.arrays()
+    next_tf = 0
+    for start in range(0, trajectory.frames, block):
+        stop = start + block
+        payload = encode_chunk({k: v[start:stop] for k, v in arrays.items()})
+        writer.add_message(motion, _ns(time[start]), payload, _ns(time[start]))
+        while next_tf < len(tf_messages) and tf_messages[next_tf][0] < stop:
+            frame, message = tf_messages[next_tf]
+            writer.add_message(tf, _ns(time[frame]), message, _ns(time[frame]))
+            next_tf += 1
+    writer.add_metadata(METADATA_NAME, _metadata_record(trajectory))
+    writer.add_attachment(0, 0, f"{robot.name}.urdf", "application/xml", robot.urdf_text.encode())
+    writer.finish()
+
+
+def _ns(seconds: float) -> int:
+    return round(float(seconds) * _NS)
+
+
+def _block_frames(trajectory: Trajectory) -> int:
+    """Frames per /motion message: about one second."""
+    return max(1, round(trajectory.rate)) if trajectory.frames > 1 else 1
+
+
+def _block_seconds(trajectory: Trajectory) -> float:
+    block = _block_frames(trajectory)
+    starts = trajectory.time[::block]
+    ends = trajectory.time[np.minimum(np.arange(len(starts)) * block + block - 1, len(trajectory.time) - 1)]
+    return float(np.max(ends - starts))
+
+
+def _metadata_record(trajectory: Trajectory) -> dict[str, str]:
+    meta = trajectory.metadata
+    return {
+        "format": FORMAT,
+        "robot": meta.robot,
+        "robot_hash": meta.robot_hash,
+        "kind": meta.kind,
+        "generator": meta.generator,
+        "motionkit_version": meta.motionkit_version,
+        "joint_names": json.dumps(trajectory.joint_names),
+        "jet_names": json.dumps(trajectory.jet_names),
+        "foot_names": json.dumps(trajectory.foot_names),
+        "frames": str(trajectory.frames),
+        "rate": repr(trajectory.rate),
+        "duration": repr(trajectory.duration),
+        "has_throttle": json.dumps(trajectory.throttle is not None),
+        "source": json.dumps(asdict(meta.source)),
+        "config": json.dumps(meta.config, sort_keys=True),
+        "metrics": json.dumps(meta.metrics, sort_keys=True),
+    }
+
+
+def _frame_transforms(
+    trajectory: Trajectory, robot: Robot, tf_rate: float
+) -> list[tuple[int, bytes]]:
+    """(frame index, FrameTransforms message) at about tf_rate: world -> root, every joint."""
+    step = max(1, round(trajectory.rate / tf_rate)) if trajectory.frames > 1 else 1
+    frames = np.arange(0, trajectory.frames, step)
+    model = robot.model
+    joints = [model.parent_joint(link) for link in model.subtree(model.root)[1:]]
+    column = {name: i for i, name in enumerate(trajectory.joint_names)}
+    positions = trajectory.joint_positions[frames].astype(float)
+    poses = np.empty((len(frames), len(joints) + 1, 7))
+    poses[:, 0, :3] = trajectory.base_position[frames]
+    poses[:, 0, 3:] = trajectory.base_orientation[frames]
+    for k, joint in enumerate(joints, start=1):
+        assert joint is not None
+        q = positions[:, column[joint.name]] if joint.name in column else None
+        transforms = joint_transforms(joint, q, len(frames))
+        poses[:, k, :3] = transforms[:, :3, 3]
+        poses[:, k, 3:] = from_rotation(_rotations(transforms))
+    poses = poses.astype(np.float32).astype(np.float64)  # float32 precision compresses better
+    parents = [WORLD_FRAME] + [j.parent for j in joints if j is not None]
+    children = [model.root] + [j.child for j in joints if j is not None]
+    messages = encode_frame_transforms(trajectory.time[frames], parents, children, poses)
+    return list(zip(frames.tolist(), messages, strict=True))
+
+
+def _rotations(transforms: np.ndarray) -> Any:
+    from scipy.spatial.transform import Rotation
+
+    return Rotation.from_matrix(transforms[:, :3, :3])
+
+
+# -- reading ------------------------------------------------------------------------------------
+def read(path: Path | str, start: float | None = None, end: float | None = None) -> Trajectory:
+    """A clip as arrays. With start and/or end [s], only the frames in [start, end], reading
+    only the chunks that hold them; a whole read also checks the file's CRCs."""
+    path = Path(path)
+    try:
+        with open(path, "rb") as handle:
+            if start is None and end is None:
+                buffer = handle.read()
+                _check_file_crcs(buffer, path)
+                return _read(BytesIO(buffer), path, None, None)
+            return _read(handle, path, start, end).window(start, end)
+    except OSError as exc:
+        raise DatasetError(f"{path}: cannot read ({exc.strerror})") from exc
+
+
+def read_metadata(path: Path | str) -> tuple[Metadata, dict[str, str]]:
+    """The clip's metadata and its raw record (frames, rate, names...), without the motion."""
+    path = Path(path)
+    try:
+        with open(path, "rb") as handle:
+            record = _index(handle, path).record
+    except OSError as exc:
+        raise DatasetError(f"{path}: cannot read ({exc.strerror})") from exc
+    return _metadata(record, path), record
+
+
+def read_urdf(path: Path | str) -> str:
+    """The robot description attached to a clip."""
+    from mcap.reader import make_reader
+
+    path = Path(path)
+    with open(path, "rb") as handle:
+        try:
+            for attachment in make_reader(handle, validate_crcs=True).iter_attachments():
+                if attachment.name.endswith(".urdf"):
+                    return attachment.data.decode()
+        except Exception as exc:
+            raise DatasetError(f"{path}: cannot read the attachments ({exc})") from exc
+    raise DatasetError(f"{path}: no robot description (.urdf attachment) in the clip")
+
+
+class _Index:
+    """What the summary section says about a clip: the /motion channel, its chunks, metadata."""
+
+    def __init__(self, summary: Any, record: dict[str, str], channel: Any) -> None:
+        self.summary = summary
+        self.record = record
+        self.channel = channel
+
+
+def _index(stream: IO[bytes], path: Path) -> _Index:
+    from mcap.reader import make_reader
+
+    try:
+        reader = make_reader(stream, validate_crcs=True)
+        summary = reader.get_summary()
+        if summary is None:
+            raise DatasetError(f"{path}: the MCAP file has no summary (index); rewrite it")
+        records = {m.name: m.metadata for m in reader.iter_metadata()}
+    except DatasetError:
+        raise
+    except Exception as exc:
+        raise DatasetError(f"{path}: not a readable MCAP file ({_describe(exc)})") from exc
+    channels = [c for c in summary.channels.values() if c.topic == MOTION_TOPIC]
+    if not channels:
+        raise DatasetError(f"{path}: no {MOTION_TOPIC} channel; not a motionkit clip")
+    schema = summary.schemas.get(channels[0].schema_id)
+    if schema is None or schema.name != MOTION_SCHEMA or schema.encoding != "protobuf":
+        found = f"{schema.name} ({schema.encoding})" if schema else "no schema"
+        raise DatasetError(
+            f"{path}: {MOTION_TOPIC} has schema {found}, expected {MOTION_SCHEMA} (protobuf)"
+        )
+    if METADATA_NAME not in records:
+        raise DatasetError(f"{path}: no '{METADATA_NAME}' metadata record; not a motionkit clip")
+    return _Index(summary, records[METADATA_NAME], channels[0])
+
+
+def _describe(exc: Exception) -> str:
+    if isinstance(exc, CRCValidationError):
+        return f"CRC mismatch: {exc}"
+    return f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+
+
+def _metadata(record: dict[str, str], path: Path) -> Metadata:
+    def field(key: str) -> str:
+        if key not in record:
+            raise DatasetError(f"{path}: metadata record lacks '{key}'")
+        return record[key]
+
+    def parsed(key: str) -> Any:
+        try:
+            return json.loads(field(key))
+        except json.JSONDecodeError as exc:
+            raise DatasetError(f"{path}: metadata '{key}' is not valid JSON ({exc})") from exc
+
+    if field("format") != FORMAT:
+        raise DatasetError(f"{path}: format '{record['format']}', this motionkit reads {FORMAT}")
+    source = parsed("source")
+    try:
+        return Metadata(
+            robot=field("robot"),
+            robot_hash=field("robot_hash"),
+            kind=field("kind"),
+            generator=field("generator"),
+            source=Source(**source),
+            config=parsed("config"),
+            metrics=parsed("metrics"),
+            motionkit_version=field("motionkit_version"),
+        )
+    except TypeError as exc:
+        raise DatasetError(f"{path}: metadata 'source' has unexpected keys {source}") from exc
+
+
+def _read(stream: IO[bytes], path: Path, start: float | None, end: float | None) -> Trajectory:
+    index = _index(stream, path)
+    metadata = _metadata(index.record, path)
+    names = {k: tuple(json.loads(index.record[k])) for k in ("joint_names", "jet_names", "foot_names")}
+    widths = {
+        "base_position": 3,
+        "base_orientation": 4,
+        "joint_positions": len(names["joint_names"]),
+        "joint_velocities": len(names["joint_names"]),
+        "base_linear_velocity": 3,
+        "base_angular_velocity": 3,
+        "thrust": len(names["jet_names"]),
+        "throttle": len(names["jet_names"]),
+        "contacts": len(names["foot_names"]),
+    }
+    lookback = float(index.channel.metadata.get("max_block_seconds", "0"))
+    low = None if start is None else max(0, _ns(start - lookback) - 1)
+    high = None if end is None else _ns(end) + 1
+    parts: dict[str, list[np.ndarray]] = {name: [] for name in ARRAY_FIELDS}
+    for log_time, payload in _messages(stream, path, index, low, high):
+        arrays = decode_chunk(payload)
+        count = len(arrays.get("time", ()))
+        for name in ARRAY_FIELDS:
+            values = arrays.get(name)
+            if values is None:
+                continue
+            width = widths.get(name, 1)
+            if values.size != count * width:
+                raise DatasetError(
+                    f"{path}: /motion message at {log_time / _NS:.3f} s has {values.size} "
+                    f"values of {name}, expected {count} frames x {width}"
+                )
+            parts[name].append(values.reshape(count, width) if name != "time" else values)
+    if not parts["time"]:
+        raise DatasetError(f"{path}: no /motion frames in the requested range")
+    merged = {k: np.concatenate(v) for k, v in parts.items() if v}
+    if "contacts" in merged:
+        merged["contacts"] = merged["contacts"].astype(bool)
+    for name in ARRAY_FIELDS:
+        if name in merged or name == "throttle":
+            continue
+        if widths[name] != 0:  # only zero-width arrays (no jets, no feet) may be absent
+            raise DatasetError(f"{path}: /motion messages lack {name}")
+        merged[name] = np.zeros((len(merged["time"]), 0))
+    return Trajectory(**merged, **names, metadata=metadata)
+
+
+def _messages(
+    stream: IO[bytes], path: Path, index: _Index, low: int | None, high: int | None
+) -> list[tuple[int, bytes]]:
+    """(log time, payload) of the /motion messages in [low, high) ns, in log-time order.
+    Reads only the chunks that hold the channel in that range and checks their CRCs."""
+    channel_id = index.channel.id
+    out: list[tuple[int, bytes]] = []
+    chunks = sorted(index.summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
+    for chunk_index in chunks:
+        if channel_id not in chunk_index.message_index_offsets:
+            continue
+        if high is not None and chunk_index.message_start_time >= high:
+            continue
+        if low is not None and chunk_index.message_end_time < low:
+            continue
+        stream.seek(chunk_index.chunk_start_offset + 1 + 8)
+        try:
+            from mcap.data_stream import ReadDataStream
+
+            data = _chunk_records(Chunk.read(ReadDataStream(stream)))
+        except DatasetError as exc:
+            raise DatasetError(f"{path}: chunk at byte {chunk_index.chunk_start_offset}: {exc}") from exc
+        except Exception as exc:
+            raise DatasetError(
+                f"{path}: chunk at byte {chunk_index.chunk_start_offset} is unreadable "
+                f"({_describe(exc)})"
+            ) from exc
+        out += _channel_messages(data, channel_id, low, high)
+    out.sort(key=lambda item: item[0])
+    return out
+
+
+def _chunk_records(chunk: Chunk) -> bytes:
+    if chunk.compression == "zstd":
+        import zstandard
+
+        data = zstandard.ZstdDecompressor().decompress(chunk.data, chunk.uncompressed_size)
+    elif chunk.compression == "lz4":
+        import lz4.frame
+
+        data = lz4.frame.decompress(chunk.data)
+    elif chunk.compression == "":
+        data = chunk.data
+    else:
+        raise DatasetError(f"unsupported chunk compression '{chunk.compression}'")
+    if len(data) != chunk.uncompressed_size:
+        raise DatasetError(f"decompressed to {len(data)} bytes, expected {chunk.uncompressed_size}")
+    if chunk.uncompressed_crc and zlib.crc32(data) != chunk.uncompressed_crc:
+        raise DatasetError("CRC mismatch: the chunk is corrupt")
+    return data
+
+
+_MESSAGE = 0x05
+_MESSAGE_HEADER = struct.Struct("<BQHIQQ")  # opcode, length, channel, sequence, log, publish
+
+
+def _channel_messages(
+    data: bytes, channel_id: int, low: int | None, high: int | None
+) -> list[tuple[int, bytes]]:
+    out = []
+    position, size = 0, len(data)
+    while position < size:
+        if position + 9 > size:
+            raise DatasetError("truncated record in a chunk")
+        opcode = data[position]
+        (length,) = struct.unpack_from("<Q", data, position + 1)
+        end = position + 9 + length
+        if end > size:
+            raise DatasetError("a record runs past the end of its chunk")
+        if opcode == _MESSAGE:
+            _, _, channel, _, log_time, _ = _MESSAGE_HEADER.unpack_from(data, position)
+            in_range = (low is None or log_time >= low) and (high is None or log_time < high)
+            if channel == channel_id and in_range:
+                out.append((log_time, data[position + _MESSAGE_HEADER.size : end]))
+        position = end
+    return out
+
+
+def _check_file_crcs(buffer: bytes, path: Path) -> None:
+    """The MCAP data-section and summary CRCs of a whole file in memory."""
+    if len(buffer) < 2 * len(_MAGIC) + _FOOTER or not buffer.startswith(_MAGIC):
+        raise DatasetError(f"{path}: not an MCAP file (bad magic or too short)")
+    if not buffer.endswith(_MAGIC):
+        raise DatasetError(f"{path}: the MCAP file is truncated (no closing magic)")
+    footer = len(buffer) - len(_MAGIC) - _FOOTER
+    summary_start, _, summary_crc = struct.unpack_from("<QQI", buffer, footer + 9)
+    if summary_crc and zlib.crc32(buffer[summary_start or footer : footer + 25]) != summary_crc:
+        raise DatasetError(f"{path}: CRC mismatch in the summary section; the file is corrupt")
+    data_end = (summary_start or footer) - _DATA_END
+    if data_end < len(_MAGIC) or buffer[data_end] != 0x0F:
+        raise DatasetError(f"{path}: no data end record where the footer says; the file is corrupt")
+    (data_crc,) = struct.unpack_from("<I", buffer, data_end + 9)
+    if data_crc and zlib.crc32(buffer[:data_end]) != data_crc:
+        raise DatasetError(f"{path}: CRC mismatch in the data section; the file is corrupt")
