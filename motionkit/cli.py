@@ -102,6 +102,10 @@ def build_parser() -> argparse.ArgumentParser:
     export.add_argument("--format", choices=("urdf", "mjcf"), required=True)
     export.add_argument("--out", type=Path, required=True, help="output folder")
     export.set_defaults(handler=_robot_export)
+
+    from motionkit.dataset.command import add_commands as add_dataset_commands
+
+    add_dataset_commands(stages, _add_robot_source)
     return parser
 
 
@@ -110,11 +114,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         signal.signal(signal.SIGPIPE, signal.SIG_DFL)
     args = build_parser().parse_args(argv)
     try:
-        args.handler(args)
+        return args.handler(args) or 0
     except MotionkitError as exc:
         print(f"motionkit: error: {exc}", file=sys.stderr)
         return 2
-    return 0
 
 
 if __name__ == "__main__":

@@ -39,7 +39,7 @@ from motionkit.dataset.trajectory import ARRAY_FIELDS, Metadata, Source, Traject
 from motionkit.errors import DatasetError
 from motionkit.outputs import atomic_output
 from motionkit.robot import Robot
-from motionkit.robot.geometry import from_rotation, to_rotation
+from motionkit.robot.geometry import from_rotation
 from motionkit.robot.kinematics import joint_transforms
 
 FORMAT = "motionkit-clip/1"
@@ -141,7 +141,9 @@ def _block_frames(trajectory: Trajectory) -> int:
 def _block_seconds(trajectory: Trajectory) -> float:
     block = _block_frames(trajectory)
     starts = trajectory.time[::block]
-    ends = trajectory.time[np.minimum(np.arange(len(starts)) * block + block - 1, len(trajectory.time) - 1)]
+    ends = trajectory.time[
+        np.minimum(np.arange(len(starts)) * block + block - 1, len(trajectory.time) - 1)
+    ]
     return float(np.max(ends - starts))
 
 
@@ -316,7 +318,9 @@ def _metadata(record: dict[str, str], path: Path) -> Metadata:
 def _read(stream: IO[bytes], path: Path, start: float | None, end: float | None) -> Trajectory:
     index = _index(stream, path)
     metadata = _metadata(index.record, path)
-    names = {k: tuple(json.loads(index.record[k])) for k in ("joint_names", "jet_names", "foot_names")}
+    names = {
+        k: tuple(json.loads(index.record[k])) for k in ("joint_names", "jet_names", "foot_names")
+    }
     widths = {
         "base_position": 3,
         "base_orientation": 4,
@@ -381,7 +385,9 @@ def _messages(
 
             data = _chunk_records(Chunk.read(ReadDataStream(stream)))
         except DatasetError as exc:
-            raise DatasetError(f"{path}: chunk at byte {chunk_index.chunk_start_offset}: {exc}") from exc
+            raise DatasetError(
+                f"{path}: chunk at byte {chunk_index.chunk_start_offset}: {exc}"
+            ) from exc
         except Exception as exc:
             raise DatasetError(
                 f"{path}: chunk at byte {chunk_index.chunk_start_offset} is unreadable "

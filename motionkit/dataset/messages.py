@@ -1,4 +1,4 @@
-"""Protobuf messages of a clip: `motionkit.MotionChunk` on /motion, `foxglove.FrameTransforms` on /tf.
+"""Protobuf messages of a clip: motionkit.MotionChunk on /motion, foxglove.FrameTransforms on /tf.
 
 Generic MCAP tools decode both from the schemas embedded in the file. motionkit itself encodes
 and decodes them with numpy, straight from the protobuf wire format (packed repeated fields are
@@ -138,7 +138,9 @@ def decode_chunk(data: bytes) -> dict[str, np.ndarray]:
             raise DatasetError(f"MotionChunk field {number} runs past the end of the message")
         field = _BY_NUMBER.get(number)
         if field is not None:
-            arrays[field.name] = np.frombuffer(data, field.dtype, length // np.dtype(field.dtype).itemsize, position)
+            arrays[field.name] = np.frombuffer(
+                data, field.dtype, length // np.dtype(field.dtype).itemsize, position
+            )
         position = end
     return arrays
 

@@ -76,7 +76,13 @@ def synthetic_trajectory(
             kind=kind,
             generator="synthetic",
             source=Source(clip=f"synthetic-{seed}", licence="CC0-1.0"),
-            config={"seconds": seconds, "rate": rate, "speed": speed, "turn_rate": turn_rate,
-                    "thrust": thrust, "seed": seed},
+            config={
+                "seconds": seconds,
+                "rate": rate,
+                "speed": speed,
+                "turn_rate": turn_rate,
+                "thrust": thrust,
+                "seed": seed,
+            },
         ),
     )

@@ -145,7 +145,8 @@ class Trajectory:
         if (self.throttle is None) != (other.throttle is None):
             return False
         same_arrays = all(
-            np.array_equal(a, b) for a, b in zip(self.arrays().values(), other.arrays().values())
+            np.array_equal(a, b)
+            for a, b in zip(self.arrays().values(), other.arrays().values(), strict=True)
         )
         same_rest = all(
             getattr(self, f.name) == getattr(other, f.name)

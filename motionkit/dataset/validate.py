@@ -1,0 +1,169 @@
+"""`motionkit dataset validate`: every check a clip must pass, as a report."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from motionkit.dataset.clip import read
+from motionkit.dataset.trajectory import Trajectory
+from motionkit.errors import MotionkitError
+from motionkit.robot import Robot
+from motionkit.robot.geometry import angular_velocity
+
+QUATERNION_TOLERANCE = 1e-3  # | |q| - 1 |
+LIMIT_TOLERANCE = 1e-3  # rad beyond a position limit; relative beyond a velocity limit
+# A stored velocity agrees with the differentiated positions when the RMS difference is below
+# RELATIVE x RMS(velocity) + ABSOLUTE (central differences of a smooth motion differ by
+# O(dt^2); rollouts log instantaneous velocities).
+VELOCITY_RELATIVE, VELOCITY_ABSOLUTE = 0.1, 0.05
+
+
+@dataclass(frozen=True)
+class Check:
+    name: str
+    ok: bool
+    detail: str
+
+
+def validate_clip(path: Path, robot: Robot | None) -> list[Check]:
+    """Read the clip (schema, metadata, CRCs) and check its values; `robot` None skips the
+    checks against a robot (its joints and limits)."""
+    try:
+        trajectory = read(path)
+    except MotionkitError as exc:
+        return [Check("read (schema, metadata, CRCs)", False, str(exc))]
+    checks = [Check("read (schema, metadata, CRCs)", True, f"{trajectory.frames} frames")]
+    checks += [check_time(trajectory), check_finite(trajectory), check_quaternions(trajectory)]
+    if trajectory.frames > 2:
+        checks += check_velocities(trajectory)
+    if robot is not None:
+        checks += check_robot(trajectory, robot)
+    return checks
+
+
+def check_time(trajectory: Trajectory) -> Check:
+    steps = np.diff(trajectory.time)
+    if trajectory.time[0] < 0:
+        return Check("time", False, f"starts at {trajectory.time[0]} s (< 0)")
+    if np.any(steps <= 0):
+        frame = int(np.argmax(steps <= 0)) + 1
+        return Check("time", False, f"not strictly increasing at frame {frame}")
+    return Check("time", True, f"{trajectory.duration:.3f} s at {trajectory.rate:.2f} Hz")
+
+
+def check_finite(trajectory: Trajectory) -> Check:
+    for name, values in trajectory.arrays().items():
+        if values.dtype != bool and not np.all(np.isfinite(values)):
+            frame = int(np.argwhere(~np.isfinite(values))[0][0])
+            return Check("finite values", False, f"{name} is not finite at frame {frame}")
+    return Check("finite values", True, "all arrays finite")
+
+
+def check_quaternions(trajectory: Trajectory) -> Check:
+    error = np.abs(np.linalg.norm(trajectory.base_orientation.astype(float), axis=1) - 1)
+    worst = int(np.argmax(error))
+    ok = bool(error[worst] <= QUATERNION_TOLERANCE)
+    return Check(
+        "unit quaternions", ok, f"largest | |q| - 1 | = {error[worst]:.2e} at frame {worst}"
+    )
+
+
+def _agreement(name: str, stored: np.ndarray, derived: np.ndarray, columns: list[str]) -> Check:
+    """Compare stored velocities with differentiated positions on the interior frames."""
+    stored, derived = stored[1:-1].astype(float), derived[1:-1]
+    error = np.sqrt(np.mean((stored - derived) ** 2, axis=0))
+    allowed = VELOCITY_RELATIVE * np.sqrt(np.mean(stored**2, axis=0)) + VELOCITY_ABSOLUTE
+    worst = int(np.argmax(error / allowed))
+    detail = (
+        f"worst {columns[worst]}: RMS difference {error[worst]:.3g} (allowed {allowed[worst]:.3g})"
+    )
+    return Check(name, bool(np.all(error <= allowed)), detail)
+
+
+def check_velocities(trajectory: Trajectory) -> list[Check]:
+    time = trajectory.time
+    joints = np.gradient(trajectory.joint_positions.astype(float), time, axis=0)
+    base = np.gradient(trajectory.base_position.astype(float), time, axis=0)
+    omega = angular_velocity(time, trajectory.base_orientation.astype(float))
+    return [
+        _agreement(
+            "joint velocities = d/dt joint positions",
+            trajectory.joint_velocities,
+            joints,
+            list(trajectory.joint_names),
+        ),
+        _agreement(
+            "base linear velocity = d/dt base position",
+            trajectory.base_linear_velocity,
+            base,
+            ["x", "y", "z"],
+        ),
+        _agreement(
+            "base angular velocity = from d/dt orientation",
+            trajectory.base_angular_velocity,
+            omega,
+            ["x", "y", "z"],
+        ),
+    ]
+
+
+def check_robot(trajectory: Trajectory, robot: Robot) -> list[Check]:
+    if trajectory.joint_names != robot.joint_names:
+        missing = sorted(set(robot.joint_names) - set(trajectory.joint_names))
+        extra = sorted(set(trajectory.joint_names) - set(robot.joint_names))
+        detail = f"missing {missing}, unknown {extra}" if missing or extra else "different order"
+        return [Check(f"joint names of {robot.name}", False, detail)]
+    meta = trajectory.metadata
+    checks = [
+        Check(f"joint names of {robot.name}", True, f"{len(robot.joint_names)} joints"),
+        Check(
+            "robot model",
+            meta.robot_hash == robot.model_hash,
+            f"clip made for {meta.robot} model {meta.robot_hash}; this model {robot.model_hash}",
+        ),
+    ]
+    limits = robot.limits
+    q = trajectory.joint_positions.astype(float)
+    beyond = np.maximum(limits.lower - q, q - limits.upper)
+    checks.append(_limit_check("joint position limits", beyond, LIMIT_TOLERANCE, "rad", trajectory))
+    speed = np.abs(trajectory.joint_velocities.astype(float)) - limits.velocity
+    checks.append(
+        _limit_check(
+            "joint velocity limits", speed, LIMIT_TOLERANCE * limits.velocity, "rad/s", trajectory
+        )
+    )
+    t_max = np.array([jet.t_max for jet in robot.spec.jets])
+    thrust = trajectory.thrust.astype(float)
+    over = np.maximum(-thrust, thrust - t_max)
+    checks.append(_limit_check("thrust within 0..T_max", over, 1e-3, "N", trajectory, "jet_names"))
+    if trajectory.throttle is not None:
+        throttle = trajectory.throttle.astype(float)
+        over = np.maximum(-throttle, throttle - 100.0)
+        checks.append(
+            _limit_check("throttle within 0..100 %", over, 1e-3, "%", trajectory, "jet_names")
+        )
+    return checks
+
+
+def _limit_check(
+    name: str,
+    beyond: np.ndarray,
+    tolerance: float | np.ndarray,
+    unit: str,
+    trajectory: Trajectory,
+    names: str = "joint_names",
+) -> Check:
+    violations = beyond > tolerance
+    if not np.any(violations):
+        return Check(name, True, f"largest excess {max(float(beyond.max()), 0.0) + 0.0:.3g} {unit}")
+    frame, column = np.unravel_index(int(np.argmax(beyond)), beyond.shape)
+    label = getattr(trajectory, names)[column]
+    return Check(
+        name,
+        False,
+        f"{int(violations.any(axis=1).sum())} frames beyond; worst {label} by "
+        f"{beyond[frame, column]:.3g} {unit} at frame {frame}",
+    )
