@@ -109,3 +109,14 @@ def toy_robot_files(tmp_path: Path) -> tuple[Path, Path]:
     urdf.write_text(toy_biped_urdf())
     spec.write_text(TOY_SPEC)
     return urdf, spec
+
+
+@pytest.fixture(scope="session")
+def toy_robot(tmp_path_factory: pytest.TempPathFactory):  # -> motionkit.robot.Robot
+    """The toy biped loaded as a Robot (joints along y; sole 0.65 m below the hip)."""
+    from motionkit.robot import load_robot
+
+    folder = tmp_path_factory.mktemp("toy")
+    (folder / "toy.urdf").write_text(toy_biped_urdf())
+    (folder / "toy.toml").write_text(TOY_SPEC)
+    return load_robot(folder / "toy.urdf", folder / "toy.toml")

@@ -37,10 +37,12 @@ def feature_names(robot: Robot) -> list[str]:
 
 
 def remove_heading(robot: Robot, quats: np.ndarray) -> np.ndarray:
-    """Base orientations with the yaw of the robot's forward axis removed (w >= 0)."""
+    """Base orientations with the heading removed: the yaw that turns the robot's forward axis
+    from where it points at the identity orientation to where it points now (w >= 0)."""
     rotation = to_rotation(quats)
-    forward = rotation.apply(np.asarray(robot.spec.forward, dtype=float))
-    heading = np.arctan2(forward[:, 1], forward[:, 0])
+    forward = np.asarray(robot.spec.forward, dtype=float)
+    facing = rotation.apply(forward)
+    heading = np.arctan2(facing[:, 1], facing[:, 0]) - np.arctan2(forward[1], forward[0])
     return from_rotation(Rotation.from_rotvec(np.outer(-heading, [0, 0, 1])) * rotation)
 
 

@@ -285,10 +285,18 @@ def _describe(exc: Exception) -> str:
     return f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
 
 
+_REQUIRED = (
+    "format", "robot", "robot_hash", "kind", "generator", "motionkit_version", "joint_names",
+    "jet_names", "foot_names", "frames", "rate", "duration", "source", "config", "metrics",
+)  # fmt: skip
+
+
 def _metadata(record: dict[str, str], path: Path) -> Metadata:
+    missing = [key for key in _REQUIRED if key not in record]
+    if missing:
+        raise DatasetError(f"{path}: metadata record lacks {', '.join(map(repr, missing))}")
+
     def field(key: str) -> str:
-        if key not in record:
-            raise DatasetError(f"{path}: metadata record lacks '{key}'")
         return record[key]
 
     def parsed(key: str) -> Any:

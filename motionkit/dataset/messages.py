@@ -61,6 +61,16 @@ def motion_schema() -> bytes:
     return descriptor_pb2.FileDescriptorSet(file=[proto]).SerializeToString()
 
 
+def motion_chunk_class() -> type:
+    """The protobuf message class of MotionChunk, built from the schema (for generic decoding)."""
+    from google.protobuf import descriptor_pool, message_factory
+
+    pool = descriptor_pool.DescriptorPool()
+    for proto in descriptor_pb2.FileDescriptorSet.FromString(motion_schema()).file:
+        pool.Add(proto)
+    return message_factory.GetMessageClass(pool.FindMessageTypeByName(MOTION_SCHEMA))
+
+
 def tf_schema() -> bytes:
     """The FileDescriptorSet of foxglove.FrameTransforms and the files it imports."""
     from foxglove_schemas_protobuf import FrameTransforms_pb2

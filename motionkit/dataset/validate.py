@@ -36,8 +36,9 @@ def validate_clip(path: Path, robot: Robot | None) -> list[Check]:
     except MotionkitError as exc:
         return [Check("read (schema, metadata, CRCs)", False, str(exc))]
     checks = [Check("read (schema, metadata, CRCs)", True, f"{trajectory.frames} frames")]
-    checks += [check_time(trajectory), check_finite(trajectory), check_quaternions(trajectory)]
-    if trajectory.frames > 2:
+    basics = [check_time(trajectory), check_finite(trajectory), check_quaternions(trajectory)]
+    checks += basics
+    if trajectory.frames > 2 and basics[0].ok and basics[1].ok:  # needs increasing, finite data
         checks += check_velocities(trajectory)
     if robot is not None:
         checks += check_robot(trajectory, robot)
