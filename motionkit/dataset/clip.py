@@ -21,7 +21,6 @@ from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
-from mcap.records import Chunk
 from mcap.stream_reader import CRCValidationError
 from mcap.writer import CompressionType, IndexType, Writer
 
@@ -210,9 +209,9 @@ def read(path: Path | str, start: float | None = None, end: float | None = None)
         with open(path, "rb") as handle:
             if start is None and end is None:
                 buffer = handle.read()
-                _check_file_crcs(buffer, path)
-                return _read(BytesIO(buffer), path, None, None)
-            return _read(handle, path, start, end).window(start, end)
+                _check_file_crcs(buffer, path)  # covers every chunk: no need to check each
+                return _read(BytesIO(buffer), path, None, None, chunk_crcs=False)
+            return _read(handle, path, start, end, chunk_crcs=True).window(start, end)
     except OSError as exc:
         raise DatasetError(f"{path}: cannot read ({exc.strerror})") from exc
 
@@ -244,19 +243,20 @@ def read_urdf(path: Path | str) -> str:
 
 
 class _Index:
-    """What the summary section says about a clip: the /motion channel, its chunks, metadata."""
+    """An open clip: its reader, the /motion channel and the metadata record."""
 
-    def __init__(self, summary: Any, record: dict[str, str], channel: Any) -> None:
-        self.summary = summary
+    def __init__(self, reader: Any, record: dict[str, str], channel: Any) -> None:
+        self.reader = reader
         self.record = record
         self.channel = channel
 
 
-def _index(stream: IO[bytes], path: Path) -> _Index:
+def _index(stream: IO[bytes], path: Path, chunk_crcs: bool = True) -> _Index:
+    """Open a clip; `chunk_crcs` False when the whole file's CRCs were checked already."""
     from mcap.reader import make_reader
 
     try:
-        reader = make_reader(stream, validate_crcs=True)
+        reader = make_reader(stream, validate_crcs=chunk_crcs)
         summary = reader.get_summary()
         if summary is None:
             raise DatasetError(f"{path}: the MCAP file has no summary (index); rewrite it")
@@ -276,7 +276,7 @@ def _index(stream: IO[bytes], path: Path) -> _Index:
         )
     if METADATA_NAME not in records:
         raise DatasetError(f"{path}: no '{METADATA_NAME}' metadata record; not a motionkit clip")
-    return _Index(summary, records[METADATA_NAME], channels[0])
+    return _Index(reader, records[METADATA_NAME], channels[0])
 
 
 def _describe(exc: Exception) -> str:
@@ -323,8 +323,10 @@ def _metadata(record: dict[str, str], path: Path) -> Metadata:
         raise DatasetError(f"{path}: metadata 'source' has unexpected keys {source}") from exc
 
 
-def _read(stream: IO[bytes], path: Path, start: float | None, end: float | None) -> Trajectory:
-    index = _index(stream, path)
+def _read(
+    stream: IO[bytes], path: Path, start: float | None, end: float | None, chunk_crcs: bool
+) -> Trajectory:
+    index = _index(stream, path, chunk_crcs)
     metadata = _metadata(index.record, path)
     names = {
         k: tuple(json.loads(index.record[k])) for k in ("joint_names", "jet_names", "foot_names")
@@ -344,7 +346,7 @@ def _read(stream: IO[bytes], path: Path, start: float | None, end: float | None)
     low = None if start is None else max(0, _ns(start - lookback) - 1)
     high = None if end is None else _ns(end) + 1
     parts: dict[str, list[np.ndarray]] = {name: [] for name in ARRAY_FIELDS}
-    for log_time, payload in _messages(stream, path, index, low, high):
+    for log_time, payload in _messages(index, path, low, high):
         arrays = decode_chunk(payload)
         count = len(arrays.get("time", ()))
         for name in ARRAY_FIELDS:
@@ -373,83 +375,15 @@ def _read(stream: IO[bytes], path: Path, start: float | None, end: float | None)
 
 
 def _messages(
-    stream: IO[bytes], path: Path, index: _Index, low: int | None, high: int | None
+    index: _Index, path: Path, low: int | None, high: int | None
 ) -> list[tuple[int, bytes]]:
-    """(log time, payload) of the /motion messages in [low, high) ns, in log-time order.
-    Reads only the chunks that hold the channel in that range and checks their CRCs."""
-    channel_id = index.channel.id
-    out: list[tuple[int, bytes]] = []
-    chunks = sorted(index.summary.chunk_indexes, key=lambda c: c.chunk_start_offset)
-    for chunk_index in chunks:
-        if channel_id not in chunk_index.message_index_offsets:
-            continue
-        if high is not None and chunk_index.message_start_time >= high:
-            continue
-        if low is not None and chunk_index.message_end_time < low:
-            continue
-        stream.seek(chunk_index.chunk_start_offset + 1 + 8)
-        try:
-            from mcap.data_stream import ReadDataStream
-
-            data = _chunk_records(Chunk.read(ReadDataStream(stream)))
-        except DatasetError as exc:
-            raise DatasetError(
-                f"{path}: chunk at byte {chunk_index.chunk_start_offset}: {exc}"
-            ) from exc
-        except Exception as exc:
-            raise DatasetError(
-                f"{path}: chunk at byte {chunk_index.chunk_start_offset} is unreadable "
-                f"({_describe(exc)})"
-            ) from exc
-        out += _channel_messages(data, channel_id, low, high)
-    out.sort(key=lambda item: item[0])
-    return out
-
-
-def _chunk_records(chunk: Chunk) -> bytes:
-    if chunk.compression == "zstd":
-        import zstandard
-
-        data = zstandard.ZstdDecompressor().decompress(chunk.data, chunk.uncompressed_size)
-    elif chunk.compression == "lz4":
-        import lz4.frame
-
-        data = lz4.frame.decompress(chunk.data)
-    elif chunk.compression == "":
-        data = chunk.data
-    else:
-        raise DatasetError(f"unsupported chunk compression '{chunk.compression}'")
-    if len(data) != chunk.uncompressed_size:
-        raise DatasetError(f"decompressed to {len(data)} bytes, expected {chunk.uncompressed_size}")
-    if chunk.uncompressed_crc and zlib.crc32(data) != chunk.uncompressed_crc:
-        raise DatasetError("CRC mismatch: the chunk is corrupt")
-    return data
-
-
-_MESSAGE = 0x05
-_MESSAGE_HEADER = struct.Struct("<BQHIQQ")  # opcode, length, channel, sequence, log, publish
-
-
-def _channel_messages(
-    data: bytes, channel_id: int, low: int | None, high: int | None
-) -> list[tuple[int, bytes]]:
-    out = []
-    position, size = 0, len(data)
-    while position < size:
-        if position + 9 > size:
-            raise DatasetError("truncated record in a chunk")
-        opcode = data[position]
-        (length,) = struct.unpack_from("<Q", data, position + 1)
-        end = position + 9 + length
-        if end > size:
-            raise DatasetError("a record runs past the end of its chunk")
-        if opcode == _MESSAGE:
-            _, _, channel, _, log_time, _ = _MESSAGE_HEADER.unpack_from(data, position)
-            in_range = (low is None or log_time >= low) and (high is None or log_time < high)
-            if channel == channel_id and in_range:
-                out.append((log_time, data[position + _MESSAGE_HEADER.size : end]))
-        position = end
-    return out
+    """(log time, payload) of the /motion messages in [low, high) ns. The reader decompresses
+    only the chunks whose index says they hold such messages, and checks their CRCs."""
+    try:
+        messages = index.reader.iter_messages([MOTION_TOPIC], starting_at=low, ending_before=high)
+        return [(message.log_time, message.data) for _, _, message in messages]
+    except Exception as exc:
+        raise DatasetError(f"{path}: the motion is unreadable ({_describe(exc)})") from exc
 
 
 def _check_file_crcs(buffer: bytes, path: Path) -> None:

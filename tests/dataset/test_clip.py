@@ -3,6 +3,7 @@
 from dataclasses import replace
 from pathlib import Path
 
+import mcap.reader
 import numpy as np
 import pytest
 from mcap.reader import make_reader
@@ -86,9 +87,9 @@ def test_window_reads_only_the_chunks_it_needs(tmp_path: Path, robot, monkeypatc
     long = synthetic_trajectory(robot, 60.0, 120.0)
     path = write(tmp_path / "long.mcap", long, robot)
     decompressed = []
-    original = clip_module._chunk_records
+    original = mcap.reader.breakup_chunk
     monkeypatch.setattr(
-        clip_module, "_chunk_records", lambda c: decompressed.append(c) or original(c)
+        mcap.reader, "breakup_chunk", lambda c, **kw: decompressed.append(c) or original(c, **kw)
     )
     read(path)
     total = len(decompressed)
