@@ -23,6 +23,7 @@ from typing import IO, Any
 import numpy as np
 from mcap.stream_reader import CRCValidationError
 from mcap.writer import CompressionType, IndexType, Writer
+from scipy.spatial.transform import Rotation
 
 from motionkit import __version__
 from motionkit.dataset.messages import (
@@ -175,29 +176,22 @@ def _frame_transforms(
     step = max(1, round(trajectory.rate / tf_rate)) if trajectory.frames > 1 else 1
     frames = np.arange(0, trajectory.frames, step)
     model = robot.model
-    joints = [model.parent_joint(link) for link in model.subtree(model.root)[1:]]
+    joints = [j for link in model.subtree(model.root)[1:] if (j := model.parent_joint(link))]
     column = {name: i for i, name in enumerate(trajectory.joint_names)}
     positions = trajectory.joint_positions[frames].astype(float)
     poses = np.empty((len(frames), len(joints) + 1, 7))
     poses[:, 0, :3] = trajectory.base_position[frames]
     poses[:, 0, 3:] = trajectory.base_orientation[frames]
     for k, joint in enumerate(joints, start=1):
-        assert joint is not None
         q = positions[:, column[joint.name]] if joint.name in column else None
         transforms = joint_transforms(joint, q, len(frames))
         poses[:, k, :3] = transforms[:, :3, 3]
-        poses[:, k, 3:] = from_rotation(_rotations(transforms))
+        poses[:, k, 3:] = from_rotation(Rotation.from_matrix(transforms[:, :3, :3]))
     poses = poses.astype(np.float32).astype(np.float64)  # float32 precision compresses better
-    parents = [WORLD_FRAME] + [j.parent for j in joints if j is not None]
-    children = [model.root] + [j.child for j in joints if j is not None]
+    parents = [WORLD_FRAME] + [j.parent for j in joints]
+    children = [model.root] + [j.child for j in joints]
     messages = encode_frame_transforms(trajectory.time[frames], parents, children, poses)
     return list(zip(frames.tolist(), messages, strict=True))
-
-
-def _rotations(transforms: np.ndarray) -> Any:
-    from scipy.spatial.transform import Rotation
-
-    return Rotation.from_matrix(transforms[:, :3, :3])
 
 
 # -- reading ------------------------------------------------------------------------------------
