@@ -13,6 +13,7 @@ import numpy as np
 
 from motionkit import __version__
 from motionkit.errors import RobotModelError
+from motionkit.outputs import write_text_atomic
 from motionkit.robot.spec import THRUST_AXIS, RobotSpec
 from motionkit.robot.urdf import RobotModel, load_urdf
 
@@ -76,10 +77,10 @@ class Robot:
         return to_mjcf(self)
 
     def urdf_path(self) -> Path:
-        return _cached(self, "model.urdf", self.urdf_text)
+        return cached_file(self, "model.urdf", self.urdf_text)
 
     def mjcf_path(self) -> Path:
-        return _cached(self, "model.xml", self.mjcf_text)
+        return cached_file(self, "model.xml", self.mjcf_text)
 
     def info(self) -> dict[str, Any]:
         """Everything `motionkit robot info` prints, as plain JSON-ready values."""
@@ -172,14 +173,12 @@ def cache_dir() -> Path:
     return Path(user_cache_dir("motionkit"))
 
 
-def _cached(robot: Robot, filename: str, text: str) -> Path:
+def cached_file(robot: Robot, filename: str, text: str) -> Path:
+    """`text` as a file in the robot's cache folder (keyed by model hash), written if changed."""
     folder = cache_dir() / "robots" / f"{robot.name}-{robot.model_hash}"
     path = folder / filename
     if not path.exists() or path.read_text() != text:
-        folder.mkdir(parents=True, exist_ok=True)
-        temporary = path.with_suffix(f".{os.getpid()}.tmp")
-        temporary.write_text(text)
-        temporary.replace(path)
+        write_text_atomic(path, text)
     return path
 
 

@@ -1,0 +1,219 @@
+"""Download CMU Graphics Lab motion-capture clips (ASF skeleton + AMC motion) into the cache.
+
+Every file is streamed to a temporary file beside its target, checked, and only then renamed, so
+the cache never holds a partial or wrong file, also when the download fails or is interrupted.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import http.client
+import re
+import sys
+import time
+import urllib.error
+import urllib.request
+from collections.abc import Iterable
+from pathlib import Path
+from typing import IO, NamedTuple, Protocol
+
+from motionkit import __version__
+from motionkit.errors import MotionkitError
+from motionkit.outputs import atomic_output
+from motionkit.robot.model import cache_dir
+
+CMU_BASE_URL = "http://mocap.cs.cmu.edu"
+_CHUNK = 64 * 1024
+_CLIP_ID = re.compile(r"(\d{1,3})_(\d{1,2})")
+_FRAME_LINE = re.compile(rb"^[ \t]*\d+[ \t]*\r?$", re.MULTILINE)
+_AMC_HEADERS = (b":degrees", b":radians", b":fully-specified")
+_ASF_SECTIONS = (b":bonedata", b":hierarchy")
+
+
+class FetchError(MotionkitError):
+    """A CMU clip id is malformed, or a clip could not be downloaded or is not what it should be."""
+
+
+class ClipId(NamedTuple):
+    """A CMU clip: subject and trial numbers; `str()` gives the canonical "02_01" form."""
+
+    subject: int
+    trial: int
+
+    @property
+    def subject_code(self) -> str:
+        return f"{self.subject:02d}"
+
+    def __str__(self) -> str:
+        return f"{self.subject:02d}_{self.trial:02d}"
+
+
+def parse_clip_id(text: str) -> ClipId:
+    """Parse "02_01", "2_1" or "143_05" (subject_trial) into a `ClipId`."""
+    match = _CLIP_ID.fullmatch(text.strip())
+    if match is None or int(match[1]) == 0 or int(match[2]) == 0:
+        raise FetchError(
+            f"bad CMU clip id {text!r}: expected SUBJECT_TRIAL with positive numbers, "
+            'e.g. "02_01" or "143_05"'
+        )
+    return ClipId(int(match[1]), int(match[2]))
+
+
+def clip_cache_dir() -> Path:
+    """Where downloaded CMU clips live: <motionkit cache>/mocap/cmu/<SS>/."""
+    return cache_dir() / "mocap" / "cmu"
+
+
+def fetch_clips(
+    clip_ids: Iterable[str],
+    cache: Path | None = None,
+    base_url: str = CMU_BASE_URL,
+    progress: bool = True,
+    timeout: float = 30.0,
+) -> list[tuple[Path, Path]]:
+    """Make sure each clip's AMC and its subject's ASF are in the cache; return (amc, asf) paths.
+
+    Files already in the cache and valid are not downloaded again. Raises `FetchError` naming the
+    clip and URL when a file is missing on the server, wrong, truncated or unreachable.
+    """
+    if isinstance(clip_ids, str):  # one id, not its characters
+        clip_ids = [clip_ids]
+    clips = [parse_clip_id(text) for text in clip_ids]  # all ids checked before any download
+    root = clip_cache_dir() if cache is None else Path(cache)
+    base = base_url.rstrip("/")
+    paths = []
+    for clip in clips:
+        folder = root / clip.subject_code
+        remote = f"{base}/subjects/{clip.subject_code}"
+        amc = folder / f"{clip}.amc"
+        asf = folder / f"{clip.subject_code}.asf"
+        # AMC first: a wrong trial number then costs no ASF download.
+        for path in (amc, asf):
+            if not _is_valid_file(path):
+                _download(f"{remote}/{path.name}", path, str(clip), progress, timeout)
+        paths.append((amc, asf))
+    return paths
+
+
+def _is_valid_file(path: Path) -> bool:
+    try:
+        return _content_problem(path.suffix, path.read_bytes()) is None
+    except OSError:
+        return False
+
+
+def _content_problem(suffix: str, data: bytes) -> str | None:
+    """Why `data` is not a plausible ASF/AMC file, or None when it is."""
+    head = data[:512].lstrip().lower()
+    if head.startswith((b"<!doctype html", b"<html")):
+        return "got an HTML page instead of the file (the clip probably does not exist)"
+    lowered = data.lower()
+    if suffix == ".asf":
+        missing = [s.decode() for s in _ASF_SECTIONS if s not in lowered]
+        if missing:
+            return f"not an ASF skeleton: no {' or '.join(missing)} section"
+    elif not any(h in lowered for h in _AMC_HEADERS):
+        return "not an AMC motion: no :DEGREES, :RADIANS or :FULLY-SPECIFIED header"
+    elif _FRAME_LINE.search(data) is None:
+        return "not an AMC motion: no frame-number line"
+    return None
+
+
+def _download(url: str, path: Path, clip: str, progress: bool, timeout: float) -> None:
+    """Stream `url` into `path` via a temporary file; on any failure raise and write nothing."""
+    made_folder = not path.parent.exists()
+    try:
+        with atomic_output(path) as stream:
+            problem = _stream(url, stream, clip, progress, timeout)
+            if problem is None:
+                stream.flush()
+                problem = _content_problem(path.suffix, Path(stream.name).read_bytes())
+            if problem is not None:
+                raise FetchError(f"clip {clip}: {url}: {problem}")
+    except BaseException:
+        if made_folder:  # leave no empty subject folder behind
+            with contextlib.suppress(OSError):
+                path.parent.rmdir()
+        raise
+
+
+def _stream(url: str, stream: IO[bytes], clip: str, progress: bool, timeout: float) -> str | None:
+    """Copy the body of `url` into `stream`; return what was wrong with the response, or None."""
+    request = urllib.request.Request(url, headers={"User-Agent": f"motionkit/{__version__}"})
+    try:
+        response = urllib.request.urlopen(request, timeout=timeout)
+    except urllib.error.HTTPError as error:
+        error.close()
+        return f"HTTP {error.code} {error.reason}"
+    except (urllib.error.URLError, OSError, http.client.HTTPException) as error:
+        reason = getattr(error, "reason", error)
+        if isinstance(reason, TimeoutError):
+            reason = f"no answer within {timeout:g} s"
+        raise FetchError(f"clip {clip}: cannot reach {url}: {reason}") from error
+    with response:
+        if response.status != 200:
+            return f"HTTP {response.status} {response.reason} (expected 200)"
+        if "html" in response.headers.get("Content-Type", "").lower():
+            return "got an HTML page instead of the file (the clip probably does not exist)"
+        length = response.headers.get("Content-Length")
+        total = int(length) if length and length.isdigit() else None
+        received = 0
+        bar = _progress_bar(url.rsplit("/", 1)[-1], total) if progress else None
+        try:
+            while chunk := response.read(_CHUNK):
+                stream.write(chunk)
+                received += len(chunk)
+                if bar is not None:
+                    bar.update(len(chunk))
+        except (OSError, http.client.HTTPException) as error:
+            reason = str(error) or type(error).__name__
+            return f"download broke off after {received} bytes ({reason})"
+        finally:
+            if bar is not None:
+                bar.close()
+    if total is not None and received != total:
+        return f"incomplete download: received {received} of {total} bytes"
+    return None
+
+
+class _Bar(Protocol):
+    def update(self, n: int) -> object: ...
+    def close(self) -> None: ...
+
+
+class _LineBar:
+    """Fallback progress bar: one \\r-rewritten line on stderr."""
+
+    def __init__(self, name: str, total: int | None) -> None:
+        self.name, self.total, self.received, self.shown = name, total, 0, 0.0
+
+    def update(self, n: int) -> None:
+        self.received += n
+        now = time.monotonic()
+        if now - self.shown >= 0.1:
+            self.shown = now
+            self._draw()
+
+    def _draw(self) -> None:
+        done = f"{self.received / 1024:.1f}"
+        if self.total:
+            line = f"{done}/{self.total / 1024:.1f} KiB ({100 * self.received // self.total}%)"
+        else:
+            line = f"{done} KiB"
+        sys.stderr.write(f"\r{self.name}: {line}")
+        sys.stderr.flush()
+
+    def close(self) -> None:
+        self._draw()
+        sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
+def _progress_bar(name: str, total: int | None) -> _Bar:
+    try:
+        from tqdm import tqdm
+    except ImportError:  # tqdm is optional
+        return _LineBar(name, total)
+    return tqdm(  # same update/close interface
+        desc=name, total=total, unit="B", unit_scale=True, unit_divisor=1024, file=sys.stderr
+    )

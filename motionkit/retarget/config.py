@@ -1,0 +1,109 @@
+"""The retargeting config: one frozen dataclass, defaults here, filled from TOML recipes."""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import asdict, dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+from motionkit.errors import MotionkitError
+
+
+class RetargetError(MotionkitError):
+    """A retargeting input or config is invalid, or the motion cannot be retargeted."""
+
+
+@dataclass(frozen=True)
+class Weights:
+    """PlaCo soft-task weights (dimensionless; the relative size is what matters)."""
+
+    foot_position: float = 100.0
+    foot_orientation: float = 10.0
+    pelvis_position: float = 10.0
+    pelvis_orientation: float = 5.0
+    torso_orientation: float = 2.0
+    knee: float = 1.0
+    elbow: float = 0.5
+    posture: float = 1e-3
+
+
+@dataclass(frozen=True)
+class RobotPoints:
+    """Robot points matched to the human's: where the axes of these joints meet ('{s}' = l/r),
+    and the frame whose orientation follows the human chest."""
+
+    hip: tuple[str, ...] = ("{s}_hip_pitch", "{s}_hip_roll", "{s}_hip_yaw")
+    knee: tuple[str, ...] = ("{s}_knee",)
+    ankle: tuple[str, ...] = ("{s}_ankle_pitch", "{s}_ankle_roll")
+    shoulder: tuple[str, ...] = ("{s}_shoulder_pitch", "{s}_shoulder_roll", "{s}_shoulder_yaw")
+    elbow: tuple[str, ...] = ("{s}_elbow",)
+    sides: tuple[str, str] = ("l", "r")  # the prefixes of the left and right joints
+    torso_frame: str = "chest"
+
+
+@dataclass(frozen=True)
+class RetargetConfig:
+    kind: str = "walk"  # dataset label of the output
+    # Human foot contact: foot height above the ground [m] and horizontal speed [m/s] below
+    # these (human scale); runs and gaps shorter than min_run [s] are removed.
+    contact_height: float = 0.06
+    contact_speed: float = 0.35
+    min_run: float = 0.05
+    # After a contact ends, the locked foot target blends back to the human's over this time [s].
+    release_time: float = 0.2
+    # The human upper arms are turned outward by this angle [rad]: iRonCub's arm jets would
+    # otherwise hit its chest jets when the arms hang down.
+    arm_abduction: float = 0.35
+    iterations: int = 2  # PlaCo solves per frame (warm-started from the previous frame)
+    settle_iterations: int = 100  # solves on the first frame
+    velocity_limits: bool = True
+    weights: Weights = Weights()
+    points: RobotPoints = RobotPoints()
+    # Clips: files, folders or CMU clip ids (a recipe's list; the CLI's inputs are added).
+    clips: tuple[str, ...] = field(default_factory=tuple)
+
+    @classmethod
+    def from_toml(cls, path: Path) -> RetargetConfig:
+        try:
+            data = tomllib.loads(Path(path).read_text())
+        except OSError as exc:
+            raise RetargetError(f"{path}: cannot read config ({exc.strerror})") from exc
+        except tomllib.TOMLDecodeError as exc:
+            raise RetargetError(f"{path}: not valid TOML ({exc})") from exc
+        return cls.from_dict(data, str(path))
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str = "<config>") -> RetargetConfig:
+        nested = {"weights": Weights, "points": RobotPoints}
+        values: dict[str, Any] = {}
+        for key, value in data.items():
+            if key in nested:
+                values[key] = _build(nested[key], value, f"{source}: [{key}]")
+            else:
+                values[key] = value
+        return _build(cls, values, source)
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def _build(cls: type, values: dict[str, Any], where: str) -> Any:
+    known = {f.name: f for f in fields(cls)}
+    unknown = sorted(set(values) - set(known))
+    if unknown:
+        raise RetargetError(f"{where}: unknown keys {unknown}; known: {sorted(known)}")
+    default = cls()
+    converted = {}
+    for key, value in values.items():
+        expected = getattr(default, key)
+        if isinstance(expected, tuple) and isinstance(value, list):
+            value = tuple(value)
+        elif isinstance(expected, float) and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        if not isinstance(value, type(expected)):
+            raise RetargetError(
+                f"{where}: '{key}' should be {type(expected).__name__}, got {value!r}"
+            )
+        converted[key] = value
+    return replace(default, **converted)

@@ -1,0 +1,110 @@
+"""Per-frame PlaCo inverse kinematics over a whole motion, warm-started frame to frame."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from motionkit.retarget.config import RetargetConfig, RetargetError
+from motionkit.retarget.points import Point
+from motionkit.retarget.targets import SIDES, Targets
+from motionkit.robot import Robot
+from motionkit.robot.geometry import Array
+from motionkit.robot.model import cached_file
+
+
+def kinematic_urdf(robot: Robot) -> str:
+    """The robot's URDF without meshes (PlaCo loads it in milliseconds), cached by model hash."""
+    model = robot.model.copy()
+    for link in model.links.values():
+        link.visuals, link.collisions = [], []
+    return str(cached_file(robot, "kinematics.urdf", model.to_urdf(f"{robot.name} without meshes")))
+
+
+def solve_motion(
+    robot: Robot,
+    targets: Targets,
+    points: dict[str, Point],
+    config: RetargetConfig,
+    progress: Callable[[int], None] | None = None,
+) -> tuple[Array, Array]:
+    """Base poses (T, 4, 4) and joint positions (T, J) in spec order."""
+    try:
+        import placo
+    except ImportError as exc:
+        raise RetargetError("retargeting needs PlaCo: pip install 'motionkit[ik]'") from exc
+
+    wrapper = placo.RobotWrapper(kinematic_urdf(robot), placo.Flags.ignore_collisions)
+    for name, value in robot.spec.posture_angles().items():
+        wrapper.set_joint(name, value)
+    wrapper.set_T_world_fbase(targets.root[0])
+    wrapper.update_kinematics()
+
+    solver = placo.KinematicsSolver(wrapper)
+    solver.mask_fbase(False)
+    solver.enable_joint_limits(True)
+    weights = config.weights
+    root = solver.add_frame_task(robot.spec.root, targets.root[0])
+    root.configure("pelvis", "soft", weights.pelvis_position, weights.pelvis_orientation)
+    torso = solver.add_orientation_task(config.points.torso_frame, targets.torso[0])
+    torso.configure("torso", "soft", weights.torso_orientation)
+    feet, knees, elbows = [], [], []
+    for k, foot in enumerate(robot.spec.feet):
+        task = solver.add_frame_task(foot.sole, targets.soles[0, k])
+        task.configure(foot.sole, "soft", weights.foot_position, weights.foot_orientation)
+        feet.append(task)
+        knees.append(_point_task(solver, points[f"{SIDES[k]}_knee"], targets.knees[0, k]))
+        knees[-1].configure(f"knee {k}", "soft", weights.knee)
+        elbows.append(_point_task(solver, points[f"{SIDES[k]}_elbow"], np.zeros(3)))
+        elbows[-1].configure(f"elbow {k}", "soft", weights.elbow)
+    posture = solver.add_joints_task()
+    posture.set_joints(robot.spec.posture_angles())
+    posture.configure("posture", "soft", weights.posture)
+
+    shoulders = [points[f"{s}_shoulder"] for s in SIDES]
+    frames = len(targets.time)
+    base = np.empty((frames, 4, 4))
+    joints = np.empty((frames, len(robot.joint_names)))
+    for t in range(frames):
+        root.T_world_frame = targets.root[t]
+        torso.R_world_frame = targets.torso[t]
+        for k in range(2):
+            feet[k].T_world_frame = targets.soles[t, k]
+            knees[k].target_world = targets.knees[t, k]
+        if t == 0:
+            iterations = config.settle_iterations
+        else:
+            iterations = config.iterations
+            if config.velocity_limits and t == 1:
+                # each solve may move at the limit for its share of the frame time
+                solver.enable_velocity_limits(True)
+                solver.dt = float(targets.time[1] - targets.time[0]) / iterations
+        for _ in range(iterations):
+            for k in range(2):  # the elbow goes along the human upper arm from the shoulder
+                shoulder = _world(wrapper, shoulders[k])
+                length = targets.upper_arm_length[k]
+                elbows[k].target_world = shoulder + length * targets.upper_arms[t, k]
+            solver.solve(True)
+            wrapper.update_kinematics()
+        base[t] = wrapper.get_T_world_fbase()
+        joints[t] = [wrapper.get_joint(name) for name in robot.joint_names]
+        if progress is not None:
+            progress(t)
+    return base, joints
+
+
+def _point_task(solver: object, point: Point, target: Array) -> object:
+    """A position task on a point fixed in a link (PlaCo tasks act on frame origins, so the
+    target is shifted by the point's offset, expressed in the world at solve time)."""
+    task = solver.add_position_task(point.link, target)  # type: ignore[attr-defined]
+    if np.linalg.norm(point.offset) > 1e-9:
+        raise RetargetError(
+            f"an IK point must be a frame origin; '{point.link}' + {point.offset} is not"
+        )
+    return task
+
+
+def _world(wrapper: object, point: Point) -> Array:
+    pose = wrapper.get_T_world_frame(point.link)  # type: ignore[attr-defined]
+    return pose[:3, :3] @ point.offset + pose[:3, 3]

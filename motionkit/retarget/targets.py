@@ -1,0 +1,247 @@
+"""From human landmarks to robot IK targets: scaling, ground, contacts, locked feet.
+
+The human is rebuilt with the robot's segment lengths: the pelvis follows the human's hip
+midpoint scaled by the leg-length ratio; knees and ankles lie along the human's thigh and shank
+directions at the robot's thigh and shank lengths. During a detected contact the sole target is
+flat on the ground (z = 0) and locked where the contact began; around contacts the target blends
+between the locked and the free pose over `release_time`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from motionkit.retarget.config import RetargetConfig, RetargetError
+from motionkit.retarget.points import Point
+from motionkit.robot import Robot
+from motionkit.robot.geometry import Array
+
+SIDES = ("l", "r")
+NEEDED = (
+    "l_hip", "l_knee", "l_ankle", "l_toe", "r_hip", "r_knee", "r_ankle", "r_toe",
+    "spine", "neck", "l_shoulder", "l_elbow", "r_shoulder", "r_elbow",
+)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Targets:
+    """Per-frame IK targets (world frame, robot scale) and what they were made from."""
+
+    time: Array  # (T,)
+    scale: float  # robot leg length / human leg length
+    contacts: np.ndarray  # (T, 2) bool, left and right
+    root: Array  # (T, 4, 4) pose of the robot's root link
+    torso: Array  # (T, 3, 3) orientation of the torso frame
+    soles: Array  # (T, 2, 4, 4) sole poses
+    knees: Array  # (T, 2, 3)
+    upper_arms: Array  # (T, 2, 3) unit directions shoulder -> elbow
+    upper_arm_length: Array  # (2,) robot shoulder-elbow distance [m]
+    source_slide: Array  # (n,) human foot horizontal speed in contact frames [m/s]
+
+
+def _unit(vectors: Array) -> Array:
+    return vectors / np.maximum(np.linalg.norm(vectors, axis=-1, keepdims=True), 1e-9)
+
+
+def body_frames(left: Array, up: Array) -> Array:
+    """(T, 3, 3) rotations with columns forward, left, up from left and approximate up axes."""
+    left = _unit(left)
+    forward = _unit(np.cross(left, up))
+    return np.stack([forward, left, np.cross(forward, left)], axis=-1)
+
+
+def _runs(mask: Array) -> list[tuple[int, int]]:
+    """[start, stop) of the runs of True."""
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True))
+
+
+def clean_runs(mask: Array, shortest: int) -> Array:
+    """Fill gaps and then drop runs shorter than `shortest` frames."""
+    out = mask.copy()
+    for start, stop in _runs(~out):
+        if 0 < start and stop < len(out) and stop - start < shortest:
+            out[start:stop] = True
+    for start, stop in _runs(out):
+        if stop - start < shortest:
+            out[start:stop] = False
+    return out
+
+
+class RobotGeometry:
+    """What the targets need of the robot, at its zero pose, in the root frame."""
+
+    def __init__(self, robot: Robot, points: dict[str, Point], torso_frame: str) -> None:
+        poses = robot.model.link_poses()
+        robot.model.require_frames([torso_frame], "the retargeting torso frame")
+
+        def at(name: str) -> Array:
+            point = points[name]
+            return (poses[point.link] @ np.append(point.offset, 1.0))[:3]
+
+        self.hip = np.array([at(f"{s}_hip") for s in SIDES])
+        self.thigh = np.array([np.linalg.norm(at(f"{s}_knee") - at(f"{s}_hip")) for s in SIDES])
+        self.shank = np.array([np.linalg.norm(at(f"{s}_ankle") - at(f"{s}_knee")) for s in SIDES])
+        self.upper_arm = np.array(
+            [np.linalg.norm(at(f"{s}_elbow") - at(f"{s}_shoulder")) for s in SIDES]
+        )
+        forward = np.asarray(robot.spec.forward, dtype=float)
+        up = np.array([0.0, 0.0, 1.0])
+        # columns: the robot's forward, left and up axes in its root frame
+        self.align = np.stack([forward, np.cross(up, forward), up], axis=1)
+        self.torso = poses[torso_frame][:3, :3]
+        soles = [poses[foot.sole] for foot in robot.spec.feet]
+        self.sole_rotation = np.array([pose[:3, :3] for pose in soles])
+        self.ankle_to_sole = np.array(
+            [
+                pose[:3, :3].T @ (pose[:3, 3] - at(f"{s}_ankle"))
+                for pose, s in zip(soles, SIDES, strict=True)
+            ]
+        )
+        self.corners = np.array(
+            [
+                [(np.linalg.inv(pose) @ poses[c])[:3, 3] for c in foot.corners]
+                for pose, foot in zip(soles, robot.spec.feet, strict=True)
+            ]
+        )
+
+    @property
+    def ankle_height(self) -> float:
+        """Height of the ankle point above the sole [m]."""
+        return float(-np.mean(self.ankle_to_sole[:, 2]))
+
+    @property
+    def leg_length(self) -> float:
+        return float(np.mean(self.thigh + self.shank))
+
+
+def make_targets(
+    landmarks: dict[str, Array], rate: float, geometry: RobotGeometry, config: RetargetConfig
+) -> Targets:
+    missing = [name for name in NEEDED if name not in landmarks]
+    if missing:
+        raise RetargetError(f"the human motion lacks landmarks {missing}")
+    h = {name: np.asarray(values, dtype=float) for name, values in landmarks.items()}
+    frames = len(h["l_hip"])
+    if frames < 2:
+        raise RetargetError("the human motion has fewer than 2 frames")
+    time = np.arange(frames) / rate
+
+    thighs = [np.linalg.norm(h[f"{s}_knee"] - h[f"{s}_hip"], axis=1) for s in SIDES]
+    shanks = [np.linalg.norm(h[f"{s}_ankle"] - h[f"{s}_knee"], axis=1) for s in SIDES]
+    human_leg = float(np.median(np.concatenate(thighs) + np.concatenate(shanks)))
+    scale = geometry.leg_length / human_leg
+
+    # ground and contacts, at human scale
+    low = np.stack([np.minimum(h[f"{s}_ankle"][:, 2], h[f"{s}_toe"][:, 2]) for s in SIDES], 1)
+    ground = float(np.percentile(low.min(axis=1), 2))
+    middle = [0.5 * (h[f"{s}_ankle"] + h[f"{s}_toe"]) for s in SIDES]
+    speed = np.stack(
+        [np.linalg.norm(np.gradient(m[:, :2], time, axis=0), axis=1) for m in middle], 1
+    )
+    raw = (low - ground < config.contact_height) & (speed < config.contact_speed)
+    shortest = max(1, round(config.min_run * rate))
+    contacts = np.stack([clean_runs(raw[:, k], shortest) for k in range(2)], axis=1)
+
+    # root and torso orientation from the human's pelvis and chest frames
+    pelvis = body_frames(h["l_hip"] - h["r_hip"], h["spine"] - 0.5 * (h["l_hip"] + h["r_hip"]))
+    chest = body_frames(h["l_shoulder"] - h["r_shoulder"], h["neck"] - h["spine"])
+    root_rotation = pelvis @ geometry.align.T
+    torso = chest @ geometry.align.T @ geometry.torso
+    # heights: the human's ankle height in contact maps to the robot's ankle height
+    ankle_heights = np.concatenate(
+        [h[f"{s}_ankle"][contacts[:, k], 2] for k, s in enumerate(SIDES)]
+    )
+    human_ankle = float(np.median(ankle_heights)) - ground if ankle_heights.size else 0.0
+    lift = geometry.ankle_height - scale * (ground + human_ankle)
+    hips_middle = scale * 0.5 * (h["l_hip"] + h["r_hip"]) + [0.0, 0.0, lift]
+    root = np.broadcast_to(np.eye(4), (frames, 4, 4)).copy()
+    root[:, :3, :3] = root_rotation
+    root[:, :3, 3] = hips_middle - root_rotation @ geometry.hip.mean(axis=0)
+
+    knees, soles = np.empty((frames, 2, 3)), np.empty((frames, 2, 4, 4))
+    for k, s in enumerate(SIDES):
+        hip = root[:, :3, 3] + root_rotation @ geometry.hip[k]
+        knees[:, k] = hip + geometry.thigh[k] * _unit(h[f"{s}_knee"] - h[f"{s}_hip"])
+        ankle = knees[:, k] + geometry.shank[k] * _unit(h[f"{s}_ankle"] - h[f"{s}_knee"])
+        soles[:, k] = _sole_targets(
+            ankle, h[f"{s}_toe"] - h[f"{s}_ankle"], contacts[:, k], k, geometry, config, rate
+        )
+    # upper arms turned outward about the chest's forward axis (keeps the arm jets off the body)
+    arms = np.stack(
+        [
+            Rotation.from_rotvec(chest[:, :, 0] * sign * config.arm_abduction).apply(
+                _unit(h[f"{s}_elbow"] - h[f"{s}_shoulder"])
+            )
+            for s, sign in zip(SIDES, (1.0, -1.0), strict=True)
+        ],
+        axis=1,
+    )
+    return Targets(
+        time=time,
+        scale=scale,
+        contacts=contacts,
+        root=root,
+        torso=torso,
+        soles=soles,
+        knees=knees,
+        upper_arms=arms,
+        upper_arm_length=geometry.upper_arm,
+        source_slide=speed[contacts],
+    )
+
+
+def _sole_targets(
+    ankle: Array,
+    foot: Array,
+    contact: Array,
+    side: int,
+    geometry: RobotGeometry,
+    config: RetargetConfig,
+    rate: float,
+) -> Array:
+    """Sole poses (T, 4, 4): the free pose from the rebuilt ankle and the human foot's heading
+    and pitch; flat and locked on the ground in contact; blended around contacts."""
+    frames = len(ankle)
+    heading = np.unwrap(np.arctan2(foot[:, 1], foot[:, 0]))
+    pitch = np.arctan2(-foot[:, 2], np.linalg.norm(foot[:, :2], axis=1))
+    neutral = float(np.median(pitch[contact] if contact.any() else pitch))
+    # weight of the free pose: 0 in contact, rising to 1 at release_time from the nearest contact
+    window = max(1, round(config.release_time * rate))
+    distance = np.full(frames, window, dtype=float)
+    for start, stop in _runs(contact):
+        index = np.arange(frames)
+        gap = np.where(index < start, start - index, np.where(index >= stop, index - stop + 1, 0))
+        distance = np.minimum(distance, gap)
+    free = distance / window
+
+    align = geometry.align.T @ geometry.sole_rotation[side]
+
+    def rotations(yaw: Array, tilt: Array) -> Array:
+        turn = Rotation.from_euler("ZY", np.stack([yaw, tilt], axis=1)).as_matrix()
+        return turn @ align
+
+    free_rotation = rotations(heading, pitch - neutral)
+    position = ankle + free_rotation @ geometry.ankle_to_sole[side]
+    # lock each contact where it began; carry the offset out of it as the weight rises
+    offset_xy, offset_yaw = np.zeros((frames, 2)), np.zeros(frames)
+    for start, stop in _runs(contact):
+        lock_xy, lock_yaw = position[start, :2].copy(), heading[start]
+        offset_xy[start:stop] = lock_xy - position[start:stop, :2]
+        offset_yaw[start:stop] = lock_yaw - heading[start:stop]
+        after = slice(stop, min(frames, stop + window))
+        offset_xy[after] = lock_xy - position[stop - 1, :2]
+        offset_yaw[after] = lock_yaw - heading[stop - 1]
+    keep = 1.0 - free
+    rotation = rotations(heading + keep * offset_yaw, free * (pitch - neutral))
+    sole = np.broadcast_to(np.eye(4), (frames, 4, 4)).copy()
+    sole[:, :3, :3] = rotation
+    sole[:, :2, 3] = position[:, :2] + keep[:, None] * offset_xy
+    sole[:, 2, 3] = free * position[:, 2]
+    # no corner below the ground
+    lowest = np.min(np.einsum("tij,cj->tci", rotation, geometry.corners[side])[..., 2], axis=1)
+    sole[:, 2, 3] = np.maximum(sole[:, 2, 3], -lowest)
+    return sole
