@@ -11,3 +11,7 @@ class RobotModelError(MotionkitError):
 
 class DatasetError(MotionkitError):
     """A motion clip or dataset is malformed, corrupt, or does not match its robot."""
+
+
+class MocapError(MotionkitError):
+    """A mocap file (BVH, ASF/AMC) or landmark mapping is malformed or cannot be interpreted."""
