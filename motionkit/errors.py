@@ -15,3 +15,7 @@ class DatasetError(MotionkitError):
 
 class MocapError(MotionkitError):
     """A mocap file (BVH, ASF/AMC) or landmark mapping is malformed or cannot be interpreted."""
+
+
+class RetargetError(MotionkitError):
+    """A retargeting input or config is invalid, or the motion cannot be retargeted."""

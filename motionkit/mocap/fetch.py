@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import IO, NamedTuple, Protocol
 
 from motionkit import __version__
-from motionkit.errors import MotionkitError
+from motionkit.errors import MocapError
 from motionkit.outputs import atomic_output
 from motionkit.robot.model import cache_dir
 
@@ -30,7 +30,7 @@ _AMC_HEADERS = (b":degrees", b":radians", b":fully-specified")
 _ASF_SECTIONS = (b":bonedata", b":hierarchy")
 
 
-class FetchError(MotionkitError):
+class FetchError(MocapError):
     """A CMU clip id is malformed, or a clip could not be downloaded or is not what it should be."""
 
 

@@ -2,16 +2,12 @@
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
-from motionkit.errors import MotionkitError
-
-
-class RetargetError(MotionkitError):
-    """A retargeting input or config is invalid, or the motion cannot be retargeted."""
+from motionkit.errors import RetargetError
+from motionkit.tomlfile import read_toml
 
 
 @dataclass(frozen=True)
@@ -65,13 +61,7 @@ class RetargetConfig:
 
     @classmethod
     def from_toml(cls, path: Path) -> RetargetConfig:
-        try:
-            data = tomllib.loads(Path(path).read_text())
-        except OSError as exc:
-            raise RetargetError(f"{path}: cannot read config ({exc.strerror})") from exc
-        except tomllib.TOMLDecodeError as exc:
-            raise RetargetError(f"{path}: not valid TOML ({exc})") from exc
-        return cls.from_dict(data, str(path))
+        return cls.from_dict(read_toml(path, "config", RetargetError), str(path))
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<config>") -> RetargetConfig:

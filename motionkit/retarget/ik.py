@@ -6,7 +6,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from motionkit.retarget.config import RetargetConfig, RetargetError
+from motionkit.errors import RetargetError
+from motionkit.retarget.config import RetargetConfig
 from motionkit.retarget.points import Point
 from motionkit.retarget.targets import SIDES, Targets
 from motionkit.robot import Robot

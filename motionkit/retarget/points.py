@@ -6,7 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from motionkit.retarget.config import RetargetError, RobotPoints
+from motionkit.errors import RetargetError
+from motionkit.retarget.config import RobotPoints
 from motionkit.robot import Robot
 from motionkit.robot.geometry import Array, invert
 from motionkit.robot.urdf import RobotModel

@@ -14,7 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from motionkit.retarget.config import RetargetConfig, RetargetError
+from motionkit.errors import RetargetError
+from motionkit.retarget.config import RetargetConfig
 from motionkit.retarget.points import Point
 from motionkit.robot import Robot
 from motionkit.robot.geometry import Array

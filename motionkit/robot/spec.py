@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from motionkit.errors import RobotModelError
+from motionkit.tomlfile import read_toml
 
 # Thrust acts along this axis of every jet frame (the frame origin is at the nozzle).
 THRUST_AXIS = (0.0, 0.0, -1.0)
@@ -103,13 +104,7 @@ class RobotSpec:
 
     @classmethod
     def from_toml(cls, path: Path) -> RobotSpec:
-        try:
-            data = tomllib.loads(Path(path).read_text())
-        except OSError as exc:
-            raise RobotModelError(f"{path}: cannot read robot spec ({exc.strerror})") from exc
-        except tomllib.TOMLDecodeError as exc:
-            raise RobotModelError(f"{path}: not valid TOML ({exc})") from exc
-        return cls.from_dict(data, str(path))
+        return cls.from_dict(read_toml(path, "robot spec", RobotModelError), str(path))
 
     @classmethod
     def builtin(cls, name: str = "ironcub") -> RobotSpec:

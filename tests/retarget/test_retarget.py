@@ -8,7 +8,8 @@ from walker import SHANK, THIGH, walker
 
 from motionkit.dataset import write
 from motionkit.dataset.validate import validate_clip
-from motionkit.retarget.config import RetargetConfig, RetargetError
+from motionkit.errors import RetargetError
+from motionkit.retarget.config import RetargetConfig
 from motionkit.retarget.metrics import segment_distance
 from motionkit.robot import ironcub
 
