@@ -14,8 +14,8 @@ from motionkit.tomlfile import read_toml
 class Weights:
     """PlaCo soft-task weights (dimensionless; the relative size is what matters)."""
 
-    foot_position: float = 100.0
-    foot_orientation: float = 10.0
+    foot_position: float = 1000.0
+    foot_orientation: float = 100.0
     pelvis_position: float = 10.0
     pelvis_orientation: float = 5.0
     torso_orientation: float = 2.0
@@ -41,6 +41,9 @@ class RobotPoints:
 @dataclass(frozen=True)
 class RetargetConfig:
     kind: str = "walk"  # dataset label of the output
+    # Landmarks are low-passed (zero-phase Butterworth, 2nd order) at this cut-off [Hz]; 0: off.
+    # 6 Hz is the usual choice for gait mocap; it removes marker jitter that the IK would chase.
+    smoothing_hz: float = 6.0
     # Human foot contact: foot height above the ground [m] and horizontal speed [m/s] below
     # these (human scale); runs and gaps shorter than min_run [s] are removed.
     contact_height: float = 0.06

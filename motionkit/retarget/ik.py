@@ -64,14 +64,29 @@ def solve_motion(
     posture.configure("posture", "soft", weights.posture)
 
     shoulders = [points[f"{s}_shoulder"] for s in SIDES]
+    ground = _GroundGuard(solver, wrapper, robot, weights.foot_position * 10)
+
+    def solve_frame(t: int, iterations: int) -> None:
+        for _ in range(iterations):
+            for k in range(2):  # the elbow goes along the human upper arm from the shoulder
+                shoulder = _world(wrapper, shoulders[k])
+                length = targets.upper_arm_length[k]
+                elbows[k].target_world = shoulder + length * targets.upper_arms[t, k]
+            solver.solve(True)
+            wrapper.update_kinematics()
+
+    landing = np.zeros((2, 3))  # per foot: x, y, yaw of the robot's sole minus the plan's
     frames = len(targets.time)
     base = np.empty((frames, 4, 4))
     joints = np.empty((frames, len(robot.joint_names)))
     for t in range(frames):
         root.T_world_frame = targets.root[t]
         torso.R_world_frame = targets.torso[t]
-        for k in range(2):
-            feet[k].T_world_frame = targets.soles[t, k]
+        for k, foot in enumerate(robot.spec.feet):
+            if t > 0 and targets.contacts[t, k] and not targets.contacts[t - 1, k]:
+                # a contact locks the sole where the robot's foot is, not where the plan put it
+                landing[k] = _planar_offset(wrapper.get_T_world_frame(foot.sole), targets.soles[t, k])
+            feet[k].T_world_frame = _shifted(targets.soles[t, k], targets.hold[t, k] * landing[k])
             knees[k].target_world = targets.knees[t, k]
         if t == 0:
             iterations = config.settle_iterations
@@ -81,18 +96,63 @@ def solve_motion(
                 # each solve may move at the limit for its share of the frame time
                 solver.enable_velocity_limits(True)
                 solver.dt = float(targets.time[1] - targets.time[0]) / iterations
-        for _ in range(iterations):
-            for k in range(2):  # the elbow goes along the human upper arm from the shoulder
-                shoulder = _world(wrapper, shoulders[k])
-                length = targets.upper_arm_length[k]
-                elbows[k].target_world = shoulder + length * targets.upper_arms[t, k]
-            solver.solve(True)
+        previous = wrapper.state.q.copy()
+        solve_frame(t, iterations)
+        if ground.engage():  # a sole corner went below the ground: solve again, holding it up
+            wrapper.state.q = previous
             wrapper.update_kinematics()
+            solve_frame(t, iterations)
+        ground.release()
         base[t] = wrapper.get_T_world_fbase()
         joints[t] = [wrapper.get_joint(name) for name in robot.joint_names]
         if progress is not None:
             progress(t)
     return base, joints
+
+
+class _GroundGuard:
+    """Holds sole corners on the ground plane (z = 0) when a solve pushed them below it: the
+    frame is solved again with a height task on each such corner. PlaCo has no inequality task
+    on a frame's height, hence this active-set step; it runs only on the frames that need it."""
+
+    TOLERANCE = 5e-4  # m below the ground that is let pass
+
+    def __init__(self, solver: object, wrapper: object, robot: Robot, weight: float) -> None:
+        self.solver, self.wrapper, self.weight = solver, wrapper, weight
+        self.corners = [c for foot in robot.spec.feet for c in foot.corners]
+        self.active: list[object] = []
+
+    def engage(self) -> bool:
+        for corner in self.corners:
+            position = self.wrapper.get_T_world_frame(corner)[:3, 3]  # type: ignore[attr-defined]
+            if position[2] < -self.TOLERANCE:
+                target = np.array([position[0], position[1], 0.0])
+                task = self.solver.add_position_task(corner, target)  # type: ignore[attr-defined]
+                task.mask.set_axises("z")
+                task.configure(f"ground {corner}", "soft", self.weight)
+                self.active.append(task)
+        return bool(self.active)
+
+    def release(self) -> None:
+        for task in self.active:
+            self.solver.remove_task(task)  # type: ignore[attr-defined]
+        self.active.clear()
+
+
+def _planar_offset(actual: Array, planned: Array) -> Array:
+    """x, y and yaw of pose `actual` relative to `planned` (world frame)."""
+    relative = actual[:3, :3] @ planned[:3, :3].T
+    yaw = np.arctan2(relative[1, 0], relative[0, 0])
+    return np.array([*(actual[:2, 3] - planned[:2, 3]), yaw])
+
+
+def _shifted(pose: Array, offset: Array) -> Array:
+    """`pose` turned by offset[2] about the vertical through it and moved by offset[:2]."""
+    c, s = np.cos(offset[2]), np.sin(offset[2])
+    out = pose.copy()
+    out[:2, :3] = np.array([[c, -s], [s, c]]) @ pose[:2, :3]
+    out[:2, 3] += offset[:2]
+    return out
 
 
 def _point_task(solver: object, point: Point, target: Array) -> object:

@@ -103,9 +103,11 @@ def compute_metrics(
     slide, lowest = [], []
     for k, foot in enumerate(robot.spec.feet):
         corners = np.stack([kin.pose(c)[:, :3, 3] for c in foot.corners], axis=1)
-        velocity = np.gradient(corners[..., :2], time, axis=0)
-        speed = np.linalg.norm(velocity, axis=-1)
-        slide.append(speed[targets.contacts[:, k]].ravel())
+        # between consecutive frames that are both in contact
+        step = np.linalg.norm(np.diff(corners[..., :2], axis=0), axis=-1)
+        speed = step / np.diff(time)[:, None]
+        both = targets.contacts[1:, k] & targets.contacts[:-1, k]
+        slide.append(speed[both].ravel())
         lowest.append(corners[..., 2].min(axis=1))
     slide_all = np.concatenate(slide)
     depth = -np.minimum(np.min(lowest, axis=0), 0.0)

@@ -37,6 +37,7 @@ class Targets:
     root: Array  # (T, 4, 4) pose of the robot's root link
     torso: Array  # (T, 3, 3) orientation of the torso frame
     soles: Array  # (T, 2, 4, 4) sole poses
+    hold: Array  # (T, 2) 1 in contact, fading to 0 over release_time after it, else 0
     knees: Array  # (T, 2, 3)
     upper_arms: Array  # (T, 2, 3) unit directions shoulder -> elbow
     upper_arm_length: Array  # (2,) robot shoulder-elbow distance [m]
@@ -45,6 +46,17 @@ class Targets:
 
 def _unit(vectors: Array) -> Array:
     return vectors / np.maximum(np.linalg.norm(vectors, axis=-1, keepdims=True), 1e-9)
+
+
+def low_pass(values: Array, rate: float, cutoff: float) -> Array:
+    """Zero-phase 2nd-order Butterworth low-pass along the first axis (unchanged when the
+    cut-off is at or above the Nyquist frequency or the clip is too short to pad)."""
+    from scipy.signal import butter, sosfiltfilt
+
+    if cutoff >= 0.5 * rate or len(values) < 10:
+        return values
+    sos = butter(2, cutoff, fs=rate, output="sos")
+    return sosfiltfilt(sos, values, axis=0, padlen=min(len(values) - 1, int(rate / cutoff)))
 
 
 def body_frames(left: Array, up: Array) -> Array:
@@ -129,6 +141,8 @@ def make_targets(
     frames = len(h["l_hip"])
     if frames < 2:
         raise RetargetError("the human motion has fewer than 2 frames")
+    if config.smoothing_hz > 0:
+        h = {name: low_pass(values, rate, config.smoothing_hz) for name, values in h.items()}
     time = np.arange(frames) / rate
 
     thighs = [np.linalg.norm(h[f"{s}_knee"] - h[f"{s}_hip"], axis=1) for s in SIDES]
@@ -164,12 +178,20 @@ def make_targets(
     root[:, :3, 3] = hips_middle - root_rotation @ geometry.hip.mean(axis=0)
 
     knees, soles = np.empty((frames, 2, 3)), np.empty((frames, 2, 4, 4))
+    hold = np.zeros((frames, 2))
     for k, s in enumerate(SIDES):
         hip = root[:, :3, 3] + root_rotation @ geometry.hip[k]
         knees[:, k] = hip + geometry.thigh[k] * _unit(h[f"{s}_knee"] - h[f"{s}_hip"])
         ankle = knees[:, k] + geometry.shank[k] * _unit(h[f"{s}_ankle"] - h[f"{s}_knee"])
-        soles[:, k] = _sole_targets(
-            ankle, h[f"{s}_toe"] - h[f"{s}_ankle"], contacts[:, k], k, geometry, config, rate
+        soles[:, k], hold[:, k] = _sole_targets(
+            ankle,
+            h[f"{s}_toe"] - h[f"{s}_ankle"],
+            h[f"{s}_knee"] - h[f"{s}_ankle"],
+            contacts[:, k],
+            k,
+            geometry,
+            config,
+            rate,
         )
     # upper arms turned outward about the chest's forward axis (keeps the arm jets off the body)
     arms = np.stack(
@@ -188,6 +210,7 @@ def make_targets(
         root=root,
         torso=torso,
         soles=soles,
+        hold=hold,
         knees=knees,
         upper_arms=arms,
         upper_arm_length=geometry.upper_arm,
@@ -198,46 +221,51 @@ def make_targets(
 def _sole_targets(
     ankle: Array,
     foot: Array,
+    shank: Array,
     contact: Array,
     side: int,
     geometry: RobotGeometry,
     config: RetargetConfig,
     rate: float,
-) -> Array:
-    """Sole poses (T, 4, 4): the free pose from the rebuilt ankle and the human foot's heading
-    and pitch; flat and locked on the ground in contact; blended around contacts."""
+) -> tuple[Array, Array]:
+    """Sole poses (T, 4, 4) and hold weights (T,): the free pose from the rebuilt ankle and the human foot frame
+    (forward along the foot, left along the ankle's pitch axis, which stays defined when the foot
+    points down at toe-off); flat and locked on the ground in contact; blended around contacts."""
     frames = len(ankle)
-    heading = np.unwrap(np.arctan2(foot[:, 1], foot[:, 0]))
-    pitch = np.arctan2(-foot[:, 2], np.linalg.norm(foot[:, :2], axis=1))
-    neutral = float(np.median(pitch[contact] if contact.any() else pitch))
+    left = _unit(np.cross(shank, foot))
+    frame = body_frames(left, np.cross(_unit(foot), left))
+    yaw = np.unwrap(np.arctan2(-left[:, 0], left[:, 1]))
+    heading = Rotation.from_euler("Z", yaw[:, None])
+    tilt = heading.inv() * Rotation.from_matrix(frame)  # pitch and roll relative to the heading
+    pitch = tilt.as_euler("ZYX")[:, 1]
+    neutral = Rotation.from_euler("Y", float(np.median(pitch[contact] if contact.any() else pitch)))
+    tilt = tilt * neutral.inv()
     # weight of the free pose: 0 in contact, rising to 1 at release_time from the nearest contact
     window = max(1, round(config.release_time * rate))
     distance = np.full(frames, window, dtype=float)
+    index = np.arange(frames)
     for start, stop in _runs(contact):
-        index = np.arange(frames)
         gap = np.where(index < start, start - index, np.where(index >= stop, index - stop + 1, 0))
         distance = np.minimum(distance, gap)
     free = distance / window
 
-    align = geometry.align.T @ geometry.sole_rotation[side]
-
-    def rotations(yaw: Array, tilt: Array) -> Array:
-        turn = Rotation.from_euler("ZY", np.stack([yaw, tilt], axis=1)).as_matrix()
-        return turn @ align
-
-    free_rotation = rotations(heading, pitch - neutral)
-    position = ankle + free_rotation @ geometry.ankle_to_sole[side]
+    align = Rotation.from_matrix(geometry.align.T @ geometry.sole_rotation[side])
+    position = ankle + (heading * tilt * align).apply(geometry.ankle_to_sole[side])
     # lock each contact where it began; carry the offset out of it as the weight rises
     offset_xy, offset_yaw = np.zeros((frames, 2)), np.zeros(frames)
+    held = np.zeros(frames, dtype=bool)
     for start, stop in _runs(contact):
-        lock_xy, lock_yaw = position[start, :2].copy(), heading[start]
+        lock_xy, lock_yaw = position[start, :2].copy(), yaw[start]
         offset_xy[start:stop] = lock_xy - position[start:stop, :2]
-        offset_yaw[start:stop] = lock_yaw - heading[start:stop]
+        offset_yaw[start:stop] = lock_yaw - yaw[start:stop]
         after = slice(stop, min(frames, stop + window))
         offset_xy[after] = lock_xy - position[stop - 1, :2]
-        offset_yaw[after] = lock_yaw - heading[stop - 1]
+        offset_yaw[after] = lock_yaw - yaw[stop - 1]
+        held[start : after.stop] = True
     keep = 1.0 - free
-    rotation = rotations(heading + keep * offset_yaw, free * (pitch - neutral))
+    partial_tilt = Rotation.from_rotvec(tilt.as_rotvec() * free[:, None])
+    turn = Rotation.from_euler("Z", (yaw + keep * offset_yaw)[:, None])
+    rotation = (turn * partial_tilt * align).as_matrix()
     sole = np.broadcast_to(np.eye(4), (frames, 4, 4)).copy()
     sole[:, :3, :3] = rotation
     sole[:, :2, 3] = position[:, :2] + keep[:, None] * offset_xy
@@ -245,4 +273,4 @@ def _sole_targets(
     # no corner below the ground
     lowest = np.min(np.einsum("tij,cj->tci", rotation, geometry.corners[side])[..., 2], axis=1)
     sole[:, 2, 3] = np.maximum(sole[:, 2, 3], -lowest)
-    return sole
+    return sole, np.where(held, keep, 0.0)
