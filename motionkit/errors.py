@@ -19,3 +19,11 @@ class MocapError(MotionkitError):
 
 class RetargetError(MotionkitError):
     """A retargeting input or config is invalid, or the motion cannot be retargeted."""
+
+
+class TrajoptError(MotionkitError):
+    """A trajectory-optimisation request is invalid, or its problem is infeasible."""
+
+
+class JetIdentError(MotionkitError):
+    """A jet bench log, thrust model file or identification config is malformed."""
