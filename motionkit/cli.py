@@ -106,6 +106,9 @@ def build_parser() -> argparse.ArgumentParser:
     from motionkit.dataset.command import add_commands as add_dataset_commands
 
     add_dataset_commands(stages, _add_robot_source)
+    from motionkit.retarget.command import add_commands as add_retarget_commands
+
+    add_retarget_commands(stages, _add_robot_source)
     return parser
 
 

@@ -54,6 +54,10 @@ class RetargetConfig:
     # The human upper arms are turned outward by this angle [rad]: iRonCub's arm jets would
     # otherwise hit its chest jets when the arms hang down.
     arm_abduction: float = 0.35
+    # Self-collision avoidance (PlaCo, hard constraint) between the capsules of limbs, feet and
+    # jets (motionkit/retarget/bodies.py) that do not share a joint: kept this far apart [m].
+    self_collisions: bool = True
+    collision_margin: float = 0.005
     iterations: int = 2  # PlaCo solves per frame (warm-started from the previous frame)
     settle_iterations: int = 100  # solves on the first frame
     velocity_limits: bool = True

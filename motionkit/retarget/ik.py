@@ -2,11 +2,19 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import contextlib
+import hashlib
+import json
+import os
+import sys
+from collections.abc import Callable, Iterator
+from itertools import combinations
+from typing import Any
 
 import numpy as np
 
 from motionkit.errors import RetargetError
+from motionkit.retarget.bodies import avoided, capsules, host_link, with_collision_cylinders
 from motionkit.retarget.config import RetargetConfig
 from motionkit.retarget.points import Point
 from motionkit.retarget.targets import SIDES, Targets
@@ -23,6 +31,42 @@ def kinematic_urdf(robot: Robot) -> str:
     return str(cached_file(robot, "kinematics.urdf", model.to_urdf(f"{robot.name} without meshes")))
 
 
+def _load_wrapper(placo: Any, robot: Robot, points: dict[str, Point], avoid: bool) -> Any:
+    """PlaCo's robot; with `avoid`, its collision model is the capsules of `bodies` (as
+    cylinders), and the non-adjacent pairs with a jet or an upper arm in them are checked. Leg
+    against leg is left to the metrics: the human's stance foot passes close to the swing leg,
+    and pushing the legs apart would drag the locked foot."""
+    if not avoid:
+        return placo.RobotWrapper(kinematic_urdf(robot), placo.Flags.ignore_collisions)
+    shapes, adjacent = capsules(robot, points)
+    text = with_collision_cylinders(robot.model, shapes).to_urdf(f"{robot.name} with capsules")
+    host = {c.name: host_link(robot.model, c) for c in shapes}
+    pairs = [
+        [host[a.name], host[b.name]]
+        for a, b in combinations(shapes, 2)
+        if frozenset((a.name, b.name)) not in adjacent and avoided(a, b)
+    ]
+    key = hashlib.sha256((text + json.dumps(pairs)).encode()).hexdigest()[:12]
+    with _quiet_stdout():  # PlaCo prints every pair that touches at the zero pose
+        wrapper = placo.RobotWrapper(str(cached_file(robot, f"capsules-{key}.urdf", text)), 0)
+    wrapper.load_collision_pairs(str(cached_file(robot, f"pairs-{key}.json", json.dumps(pairs))))
+    return wrapper
+
+
+@contextlib.contextmanager
+def _quiet_stdout() -> Iterator[None]:
+    """Silence output that C++ code writes to the process's stdout."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 1)
+            yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
 def solve_motion(
     robot: Robot,
     targets: Targets,
@@ -36,7 +80,7 @@ def solve_motion(
     except ImportError as exc:
         raise RetargetError("retargeting needs PlaCo: pip install 'motionkit[ik]'") from exc
 
-    wrapper = placo.RobotWrapper(kinematic_urdf(robot), placo.Flags.ignore_collisions)
+    wrapper = _load_wrapper(placo, robot, points, config.self_collisions)
     for name, value in robot.spec.posture_angles().items():
         wrapper.set_joint(name, value)
     wrapper.set_T_world_fbase(targets.root[0])
@@ -59,6 +103,11 @@ def solve_motion(
         knees[-1].configure(f"knee {k}", "soft", weights.knee)
         elbows.append(_point_task(solver, points[f"{SIDES[k]}_elbow"], np.zeros(3)))
         elbows[-1].configure(f"elbow {k}", "soft", weights.elbow)
+    if config.self_collisions:
+        avoid = solver.add_avoid_self_collisions_constraint()
+        avoid.self_collisions_margin = config.collision_margin
+        avoid.self_collisions_trigger = config.collision_margin + 0.04
+        avoid.configure("self collisions", "hard", 1.0)
     posture = solver.add_joints_task()
     posture.set_joints(robot.spec.posture_angles())
     posture.configure("posture", "soft", weights.posture)
@@ -85,7 +134,8 @@ def solve_motion(
         for k, foot in enumerate(robot.spec.feet):
             if t > 0 and targets.contacts[t, k] and not targets.contacts[t - 1, k]:
                 # a contact locks the sole where the robot's foot is, not where the plan put it
-                landing[k] = _planar_offset(wrapper.get_T_world_frame(foot.sole), targets.soles[t, k])
+                actual = wrapper.get_T_world_frame(foot.sole)
+                landing[k] = _planar_offset(actual, targets.soles[t, k])
             feet[k].T_world_frame = _shifted(targets.soles[t, k], targets.hold[t, k] * landing[k])
             knees[k].target_world = targets.knees[t, k]
         if t == 0:

@@ -2,27 +2,18 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from itertools import combinations
 
 import numpy as np
 
+from motionkit.retarget.bodies import avoided, capsules, segment_distance
 from motionkit.retarget.points import Point
 from motionkit.retarget.targets import SIDES, Targets
 from motionkit.robot import Robot
 from motionkit.robot.geometry import Array
 from motionkit.robot.kinematics import frame_poses
-from motionkit.robot.mk1_1 import JET_LENGTH, JET_RADIUS
 
 PENETRATION_LIMIT = 0.005  # m: a frame with a sole corner deeper than this counts as sinking
-
-
-@dataclass(frozen=True)
-class Capsule:
-    name: str
-    start: Point
-    end: Point
-    radius: float  # m
 
 
 class Kinematics:
@@ -41,51 +32,6 @@ class Kinematics:
     def point(self, point: Point) -> Array:
         pose = self.pose(point.link)
         return pose[:, :3, :3] @ point.offset + pose[:, :3, 3]
-
-
-def capsules(robot: Robot, points: dict[str, Point]) -> tuple[list[Capsule], set[frozenset]]:
-    """Limb, foot and jet capsules (radii are rough sizes of iCub's links and the P250), and
-    the pairs that share a joint or a mounting (they may touch by design)."""
-    shapes, adjacent = [], set()
-    poses = robot.model.link_poses()
-    hands = dict(zip(robot.spec.hands, SIDES, strict=False))
-    for k, side in enumerate(SIDES):
-        foot = robot.spec.feet[k]
-        sole = np.linalg.inv(poses[foot.sole])
-        local = np.array([(sole @ poses[c])[:3, 3] for c in foot.corners])
-        shapes += [
-            Capsule(f"{side}_thigh", points[f"{side}_hip"], points[f"{side}_knee"], 0.06),
-            Capsule(f"{side}_shank", points[f"{side}_knee"], points[f"{side}_ankle"], 0.05),
-            Capsule(
-                f"{side}_foot",
-                Point(foot.sole, local[:2].mean(axis=0)),
-                Point(foot.sole, local[2:].mean(axis=0)),
-                0.03,
-            ),
-            Capsule(f"{side}_upper_arm", points[f"{side}_shoulder"], points[f"{side}_elbow"], 0.04),
-        ]
-        adjacent |= {
-            frozenset((f"{side}_thigh", f"{side}_shank")),
-            frozenset((f"{side}_shank", f"{side}_foot")),
-        }
-    for jet in robot.spec.jets:
-        top = Point(jet.frame, np.array([0.0, 0.0, -JET_LENGTH]))
-        shapes.append(Capsule(f"jet_{jet.name}", Point(jet.frame, np.zeros(3)), top, JET_RADIUS))
-        if jet.frame in hands:
-            adjacent.add(frozenset((f"jet_{jet.name}", f"{hands[jet.frame]}_upper_arm")))
-    return shapes, adjacent
-
-
-def segment_distance(p0: Array, p1: Array, q0: Array, q1: Array) -> Array:
-    """Distance between segments p0-p1 and q0-q1, vectorised over the leading axis."""
-    u, v, w = p1 - p0, q1 - q0, p0 - q0
-    a, b, c = (u * u).sum(-1), (u * v).sum(-1), (v * v).sum(-1)
-    d, e = (u * w).sum(-1), (v * w).sum(-1)
-    denominator = np.maximum(a * c - b * b, 1e-12)
-    s = np.clip((b * e - c * d) / denominator, 0.0, 1.0)
-    t = np.clip((b * s + e) / np.maximum(c, 1e-12), 0.0, 1.0)
-    s = np.clip((b * t - d) / np.maximum(a, 1e-12), 0.0, 1.0)
-    return np.linalg.norm(w + s[:, None] * u - t[:, None] * v, axis=-1)
 
 
 def compute_metrics(
@@ -155,16 +101,18 @@ def compute_metrics(
     metrics["joint_acceleration_rms_rad_s2"] = float(np.sqrt(np.mean(acceleration**2)))
     metrics["largest_joint_step_rad"] = float(np.abs(np.diff(joints, axis=0)).max())
 
-    # clearance between non-adjacent bodies
+    # clearance between non-adjacent bodies: all of them, and the pairs the IK keeps apart
     shapes, adjacent = capsules(robot, points)
     ends = {c.name: (kin.point(c.start), kin.point(c.end)) for c in shapes}
-    closest, pair = np.inf, ""
+    closest = {"all": (np.inf, ""), "avoided": (np.inf, "")}
     for a, b in combinations(shapes, 2):
         if frozenset((a.name, b.name)) in adjacent:
             continue
-        distance = segment_distance(*ends[a.name], *ends[b.name]) - a.radius - b.radius
-        if distance.min() < closest:
-            closest, pair = float(distance.min()), f"{a.name}/{b.name}"
-    metrics["closest_approach_m"] = closest
-    metrics["closest_pair"] = pair
+        distance = float(np.min(segment_distance(*ends[a.name], *ends[b.name])))
+        distance -= a.radius + b.radius
+        for group in ("all", "avoided") if avoided(a, b) else ("all",):
+            if distance < closest[group][0]:
+                closest[group] = (distance, f"{a.name}/{b.name}")
+    metrics["closest_approach_m"], metrics["closest_pair"] = closest["all"]
+    metrics["closest_jet_or_arm_m"], metrics["closest_jet_or_arm_pair"] = closest["avoided"]
     return metrics

@@ -228,9 +228,10 @@ def _sole_targets(
     config: RetargetConfig,
     rate: float,
 ) -> tuple[Array, Array]:
-    """Sole poses (T, 4, 4) and hold weights (T,): the free pose from the rebuilt ankle and the human foot frame
-    (forward along the foot, left along the ankle's pitch axis, which stays defined when the foot
-    points down at toe-off); flat and locked on the ground in contact; blended around contacts."""
+    """Sole poses (T, 4, 4) and hold weights (T,): the free pose from the rebuilt ankle and the
+    human foot frame (forward along the foot, left along the ankle's pitch axis, which stays
+    defined when the foot points down at toe-off); flat and locked on the ground in contact;
+    blended around contacts. The hold weight says how much of the landing correction applies."""
     frames = len(ankle)
     left = _unit(np.cross(shank, foot))
     frame = body_frames(left, np.cross(_unit(foot), left))

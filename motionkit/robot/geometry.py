@@ -3,6 +3,8 @@
 Quaternion order everywhere in motionkit is scalar first: (w, x, y, z), as in MuJoCo.
 """
 
+import warnings
+
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
@@ -16,7 +18,9 @@ def rpy_to_matrix(rpy: Array) -> Array:
 
 
 def matrix_to_rpy(rotation: Array) -> Array:
-    return Rotation.from_matrix(rotation).as_euler("xyz")
+    with warnings.catch_warnings():  # at pitch +-90 deg scipy picks yaw 0: still the same rotation
+        warnings.simplefilter("ignore", UserWarning)
+        return Rotation.from_matrix(rotation).as_euler("xyz")
 
 
 def matrix_to_quat(rotation: Array) -> Array:

@@ -1,0 +1,153 @@
+"""`motionkit retarget` and `motionkit mocap fetch`: thin wrappers over motionkit.retarget."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+from motionkit.errors import RetargetError
+from motionkit.outputs import write_text_atomic
+from motionkit.retarget.batch import QUALITY, ClipResult, resolve_inputs, retarget_all
+from motionkit.retarget.config import RetargetConfig
+
+RETARGET_EPILOG = """\
+INPUT is a .bvh file, an .amc file (its skeleton: <subject>.asf beside it, or the only .asf in
+its folder), a folder (searched recursively), or a CMU clip id such as 02_01 (downloaded into the
+cache first, see `motionkit mocap fetch`). A recipe (--config, e.g. retarget/cmu_walk.toml) can
+list clips too; its settings are RetargetConfig's fields (motionkit/retarget/config.py).
+
+Each clip becomes DIR/<name>.mcap with the resolved config and its quality metrics in the
+metadata; DIR/retarget_summary.json holds every clip's metrics and stage times. A clip that
+fails writes nothing and makes the exit status 1. The summary marks figures beyond those of a
+clean walk: foot slide p95 > 1 cm/s, penetration > 2 mm, any limit violation, mean foot error
+> 3 cm."""
+
+
+def add_commands(stages: argparse._SubParsersAction, robot_source: Any) -> None:
+    retarget = stages.add_parser(
+        "retarget",
+        help="human mocap (BVH, ASF/AMC, CMU clip ids) onto the robot with PlaCo IK",
+        description="Retarget human motion capture onto the robot: scaling by leg length, "
+        "contact detection, feet flat and locked in contact, PlaCo inverse kinematics within "
+        "joint position and velocity limits; one MCAP clip per input.",
+        epilog=RETARGET_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    retarget.add_argument("inputs", nargs="*", metavar="INPUT", help="files, folders, clip ids")
+    retarget.add_argument("--out", type=Path, required=True, help="output folder")
+    retarget.add_argument("--config", type=Path, help="recipe TOML (default settings without)")
+    retarget.add_argument(
+        "--jobs", type=int, default=1, help="parallel processes (default 1; 0 = one per CPU)"
+    )
+    retarget.add_argument("--kind", help="dataset label of the outputs (default: the config's)")
+    robot_source(retarget)
+    retarget.set_defaults(handler=_retarget)
+
+    mocap = stages.add_parser(
+        "mocap",
+        help="download CMU motion-capture clips",
+        description="Human motion capture files.",
+    )
+    actions = mocap.add_subparsers(dest="mocap_command", required=True, metavar="ACTION")
+    fetch = actions.add_parser(
+        "fetch",
+        help="download CMU clips (ASF/AMC) into the cache",
+        description="Download clips of the CMU Graphics Lab Motion Capture Database "
+        "(mocap.cs.cmu.edu; free for research and commercial use) into the user cache; files "
+        "already there and complete are not downloaded again. Prints each clip's AMC and ASF.",
+    )
+    fetch.add_argument("clips", nargs="+", metavar="CLIP", help="clip ids, e.g. 02_01 143_05")
+    fetch.add_argument("--cache", type=Path, help="folder to store the clips (default: cache)")
+    fetch.add_argument("--base-url", default=None, help=argparse.SUPPRESS)  # tests: a local server
+    fetch.set_defaults(handler=_fetch)
+
+
+def _fetch(args: argparse.Namespace) -> None:
+    from motionkit.mocap.fetch import CMU_BASE_URL, fetch_clips
+
+    for amc, asf in fetch_clips(args.clips, args.cache, args.base_url or CMU_BASE_URL):
+        print(f"{amc.stem}  {amc}  {asf}")
+
+
+def _retarget(args: argparse.Namespace) -> int:
+    config = RetargetConfig.from_toml(args.config) if args.config else RetargetConfig()
+    if args.kind:
+        config = replace(config, kind=args.kind)
+    if args.jobs < 0:
+        raise RetargetError(f"--jobs must be 0 (one per CPU) or more, got {args.jobs}")
+    jobs = args.jobs or os.cpu_count() or 1
+    base = args.config.parent if args.config else Path.cwd()
+    recipe = [str(base / c) if (base / c).exists() else c for c in config.clips]
+    clips = resolve_inputs([*recipe, *args.inputs])
+    print(f"retargeting {len(clips)} clip(s) into {args.out} with {min(jobs, len(clips))} job(s)")
+    results = retarget_all(
+        clips, args.out, config, jobs, (args.urdf, args.spec), report=_report_clip
+    )
+    _print_table(results)
+    done = [r for r in results if r.output is not None]
+    if done:
+        summary = {
+            "config": config.to_dict(),
+            "clips": [_result_json(r) for r in results],
+        }
+        write_text_atomic(args.out / "retarget_summary.json", json.dumps(summary, indent=2))
+    failed = len(results) - len(done)
+    if failed:
+        print(f"{failed} of {len(results)} clip(s) failed; nothing written for them")
+        return 1
+    return 0
+
+
+def _report_clip(result: ClipResult, done: int, total: int) -> None:
+    if result.output is None:
+        print(f"[{done}/{total}] {result.name}: FAILED: {result.error}", flush=True)
+    else:
+        rate = result.frames / result.seconds if result.seconds else 0.0
+        print(
+            f"[{done}/{total}] {result.name}: {result.frames} frames in {result.seconds:.2f} s "
+            f"({rate:.0f} frames/s) -> {result.output}",
+            flush=True,
+        )
+
+
+def _print_table(results: list[ClipResult]) -> None:
+    header = (
+        f"{'clip':<18} {'frames':>6} {'slide p95':>9} {'source':>7} {'sink':>6} {'limits':>6} "
+        f"{'feet':>6} {'knees':>6} {'clear':>7}  check"
+    )
+    print(f"\n{header}\n{'':<18} {'':>6} {'[cm/s]':>9} {'[cm/s]':>7} {'[mm]':>6} {'':>6} "
+          f"{'[cm]':>6} {'[cm]':>6} {'[cm]':>7}")  # fmt: skip
+    for r in results:
+        if r.output is None:
+            print(f"{r.name:<18} failed: {r.error}")
+            continue
+        m = r.metrics
+        violations = int(m["joint_position_violations"]) + int(m["joint_velocity_violations"])
+        problems = r.problems()
+        print(
+            f"{r.name:<18} {r.frames:>6} {100 * float(m['foot_slide_p95_m_s']):>9.2f} "
+            f"{100 * float(m['source_slide_p95_m_s']):>7.1f} "
+            f"{1000 * float(m['penetration_max_m']):>6.2f} {violations:>6d} "
+            f"{100 * float(m['feet_error_mean_m']):>6.2f} "
+            f"{100 * float(m['knees_error_mean_m']):>6.2f} "
+            f"{100 * float(m['closest_approach_m']):>7.1f}  "
+            f"{'ok' if not problems else 'beyond: ' + ', '.join(problems)}"
+        )
+    print(f"(clean: {', '.join(f'{k} <= {v}' for k, v in QUALITY.items())})")
+
+
+def _result_json(result: ClipResult) -> dict[str, Any]:
+    return {
+        "name": result.name,
+        "source": result.source,
+        "output": str(result.output) if result.output else None,
+        "frames": result.frames,
+        "seconds": result.seconds,
+        "stages_s": result.stages,
+        "metrics": result.metrics,
+        "error": result.error,
+    }
