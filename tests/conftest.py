@@ -1,10 +1,13 @@
 """Shared fixtures: a private cache, the ../shared reference (skips if absent), a toy robot."""
 
+import sys
 from pathlib import Path
 
 import pytest
 
 SHARED = Path(__file__).resolve().parents[1] / ".." / "shared"
+# test helpers that build mocap files (tests/mocap/mocap_synth.py) serve other stages' tests too
+sys.path.insert(0, str(Path(__file__).resolve().parent / "mocap"))
 
 
 @pytest.fixture(autouse=True, scope="session")

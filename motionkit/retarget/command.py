@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import sys
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -104,7 +105,7 @@ def _retarget(args: argparse.Namespace) -> int:
 
 def _report_clip(result: ClipResult, done: int, total: int) -> None:
     if result.output is None:
-        print(f"[{done}/{total}] {result.name}: FAILED: {result.error}", flush=True)
+        print(f"[{done}/{total}] {result.name}: failed: {result.error}", file=sys.stderr)
     else:
         rate = result.frames / result.seconds if result.seconds else 0.0
         print(

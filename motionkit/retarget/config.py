@@ -66,6 +66,12 @@ class RetargetConfig:
     # Clips: files, folders or CMU clip ids (a recipe's list; the CLI's inputs are added).
     clips: tuple[str, ...] = field(default_factory=tuple)
 
+    def __post_init__(self) -> None:
+        from motionkit.dataset.trajectory import KINDS
+
+        if self.kind not in KINDS:
+            raise RetargetError(f"kind '{self.kind}' is not one of {', '.join(KINDS)}")
+
     @classmethod
     def from_toml(cls, path: Path) -> RetargetConfig:
         return cls.from_dict(read_toml(path, "config", RetargetError), str(path))

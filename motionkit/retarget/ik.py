@@ -47,24 +47,27 @@ def _load_wrapper(placo: Any, robot: Robot, points: dict[str, Point], avoid: boo
         if frozenset((a.name, b.name)) not in adjacent and avoided(a, b)
     ]
     key = hashlib.sha256((text + json.dumps(pairs)).encode()).hexdigest()[:12]
-    with _quiet_stdout():  # PlaCo prints every pair that touches at the zero pose
+    with _quiet():  # PlaCo prints every pair that touches at the zero pose
         wrapper = placo.RobotWrapper(str(cached_file(robot, f"capsules-{key}.urdf", text)), 0)
     wrapper.load_collision_pairs(str(cached_file(robot, f"pairs-{key}.json", json.dumps(pairs))))
     return wrapper
 
 
 @contextlib.contextmanager
-def _quiet_stdout() -> Iterator[None]:
-    """Silence output that C++ code writes to the process's stdout."""
+def _quiet() -> Iterator[None]:
+    """Silence what C++ code writes to the process's stdout and stderr."""
     sys.stdout.flush()
-    saved = os.dup(1)
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
     try:
         with open(os.devnull, "wb") as null:
             os.dup2(null.fileno(), 1)
+            os.dup2(null.fileno(), 2)
             yield
     finally:
-        os.dup2(saved, 1)
-        os.close(saved)
+        for fd, copy in zip((1, 2), saved, strict=True):
+            os.dup2(copy, fd)
+            os.close(copy)
 
 
 def solve_motion(
@@ -107,7 +110,7 @@ def solve_motion(
         avoid = solver.add_avoid_self_collisions_constraint()
         avoid.self_collisions_margin = config.collision_margin
         avoid.self_collisions_trigger = config.collision_margin + 0.04
-        avoid.configure("self collisions", "hard", 1.0)
+        avoid.configure("self collisions", "soft", 1e4)  # hard fails on clips that start inside
     posture = solver.add_joints_task()
     posture.set_joints(robot.spec.posture_angles())
     posture.configure("posture", "soft", weights.posture)
@@ -147,11 +150,14 @@ def solve_motion(
                 solver.enable_velocity_limits(True)
                 solver.dt = float(targets.time[1] - targets.time[0]) / iterations
         previous = wrapper.state.q.copy()
-        solve_frame(t, iterations)
-        if ground.engage():  # a sole corner went below the ground: solve again, holding it up
-            wrapper.state.q = previous
-            wrapper.update_kinematics()
+        try:
             solve_frame(t, iterations)
+            if ground.engage():  # a sole corner went below the ground: solve again, holding it up
+                wrapper.state.q = previous
+                wrapper.update_kinematics()
+                solve_frame(t, iterations)
+        except RuntimeError as exc:  # PlaCo's QP errors
+            raise RetargetError(f"frame {t}: the IK failed: {exc}") from None
         ground.release()
         base[t] = wrapper.get_T_world_fbase()
         joints[t] = [wrapper.get_joint(name) for name in robot.joint_names]

@@ -238,7 +238,8 @@ def _sole_targets(
     yaw = np.unwrap(np.arctan2(-left[:, 0], left[:, 1]))
     heading = Rotation.from_euler("Z", yaw[:, None])
     tilt = heading.inv() * Rotation.from_matrix(frame)  # pitch and roll relative to the heading
-    pitch = tilt.as_euler("ZYX")[:, 1]
+    forward = tilt.apply([1.0, 0.0, 0.0])
+    pitch = np.arctan2(-forward[:, 2], forward[:, 0])
     neutral = Rotation.from_euler("Y", float(np.median(pitch[contact] if contact.any() else pitch)))
     tilt = tilt * neutral.inv()
     # weight of the free pose: 0 in contact, rising to 1 at release_time from the nearest contact

@@ -75,3 +75,39 @@ def test_segment_distance_by_hand() -> None:
     assert crossing[0] == pytest.approx(0.2)
     beyond = segment_distance(zero, x, np.array([[2.0, 0, 0]]), np.array([[3.0, 0, 0]]))
     assert beyond[0] == pytest.approx(1.0)
+
+
+def test_low_pass_keeps_gait_and_drops_jitter() -> None:
+    from motionkit.retarget.targets import low_pass
+
+    rate = 120.0
+    t = np.arange(600) / rate
+    slow, fast = np.sin(2 * np.pi * 1.0 * t), np.sin(2 * np.pi * 30.0 * t)
+    out = low_pass(np.stack([slow, fast], axis=1), rate, 6.0)
+    middle = slice(120, 480)  # away from the padded ends
+    # 2nd-order Butterworth run forward and back: gain 1 / (1 + (f / fc)^4)
+    assert np.abs(out[middle, 0]).max() == pytest.approx(1 / (1 + (1 / 6) ** 4), abs=2e-3)
+    assert np.abs(out[middle, 1]).max() == pytest.approx(1 / (1 + 5**4), abs=2e-3)
+    assert np.array_equal(low_pass(slow[:5], rate, 6.0), slow[:5])  # too short: unchanged
+
+
+def test_sole_target_defined_when_the_foot_points_down() -> None:
+    """At toe-off the human foot can point straight down: its heading is then undefined, but the
+    ankle's pitch axis (shank x foot) is not, and the sole target turns smoothly through it."""
+    from motionkit.retarget.points import robot_points
+    from motionkit.retarget.targets import RobotGeometry, _sole_targets
+
+    robot = ironcub()
+    config = RetargetConfig()
+    geometry = RobotGeometry(robot, robot_points(robot, config.points), "chest")
+    frames = 61
+    pitch = np.linspace(0.0, np.pi / 2, frames)  # foot from flat to straight down, heading +x
+    foot = 0.12 * np.stack([np.cos(pitch), np.zeros(frames), -np.sin(pitch)], axis=1)
+    shank = np.tile([0.0, 0.0, 0.4], (frames, 1))
+    contact = np.zeros(frames, dtype=bool)
+    ankle = np.tile([0.0, 0.0, 0.3], (frames, 1))
+    soles, hold = _sole_targets(ankle, foot, shank, contact, 0, geometry, config, 120.0)
+    assert np.isfinite(soles).all() and not hold.any()
+    turn = np.einsum("tji,tjk->tik", soles[:-1, :3, :3], soles[1:, :3, :3])
+    step = np.arccos(np.clip((np.trace(turn, axis1=1, axis2=2) - 1) / 2, -1, 1))
+    assert step.max() < 2 * (np.pi / 2) / (frames - 1)  # no jump anywhere, also at the end
