@@ -111,3 +111,12 @@ def test_sole_target_defined_when_the_foot_points_down() -> None:
     turn = np.einsum("tji,tjk->tik", soles[:-1, :3, :3], soles[1:, :3, :3])
     step = np.arccos(np.clip((np.trace(turn, axis1=1, axis2=2) - 1) / 2, -1, 1))
     assert step.max() < 2 * (np.pi / 2) / (frames - 1)  # no jump anywhere, also at the end
+
+
+def test_recipes_parse() -> None:
+    folder = Path(__file__).resolve().parents[2] / "retarget"
+    recipes = sorted(folder.glob("*.toml"))
+    assert recipes, folder
+    for recipe in recipes:
+        config = RetargetConfig.from_toml(recipe)
+        assert config.clips and config.kind == "walk"
