@@ -1,8 +1,10 @@
-"""Reading a TOML input file with errors of the caller's family."""
+"""TOML input files: reading them, and filling frozen config dataclasses from their tables,
+with errors of the caller's family."""
 
 from __future__ import annotations
 
 import tomllib
+from dataclasses import fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -17,3 +19,35 @@ def read_toml(path: Path, what: str, error: type[MotionkitError]) -> dict[str, A
         raise error(f"{path}: cannot read {what} ({exc.strerror})") from exc
     except tomllib.TOMLDecodeError as exc:
         raise error(f"{path}: not valid TOML ({exc})") from exc
+
+
+def build_dataclass(
+    cls: type, values: dict[str, Any], where: str, error: type[MotionkitError]
+) -> Any:
+    """`cls()` with `values` replacing its defaults, each checked against the default's type
+    (TOML lists become tuples, integers become floats where a float is expected); `error`
+    names `where`, the key and what was expected."""
+    known = {f.name for f in fields(cls)}
+    unknown = sorted(set(values) - known)
+    if unknown:
+        raise error(f"{where}: unknown keys {unknown}; known: {sorted(known)}")
+    default = cls()
+    converted = {}
+    for key, value in values.items():
+        expected = getattr(default, key)
+        if isinstance(expected, tuple) and isinstance(value, list):
+            value = tuple(float(v) if _is_int(v) and _floats(expected) else v for v in value)
+        elif isinstance(expected, float) and _is_int(value):
+            value = float(value)
+        if not isinstance(value, type(expected)):
+            raise error(f"{where}: '{key}' should be {type(expected).__name__}, got {value!r}")
+        converted[key] = value
+    return replace(default, **converted)
+
+
+def _is_int(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _floats(default: tuple) -> bool:
+    return bool(default) and all(isinstance(v, float) for v in default)

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 from motionkit.errors import RetargetError
-from motionkit.tomlfile import read_toml
+from motionkit.tomlfile import build_dataclass, read_toml
 
 
 @dataclass(frozen=True)
@@ -92,21 +92,4 @@ class RetargetConfig:
 
 
 def _build(cls: type, values: dict[str, Any], where: str) -> Any:
-    known = {f.name: f for f in fields(cls)}
-    unknown = sorted(set(values) - set(known))
-    if unknown:
-        raise RetargetError(f"{where}: unknown keys {unknown}; known: {sorted(known)}")
-    default = cls()
-    converted = {}
-    for key, value in values.items():
-        expected = getattr(default, key)
-        if isinstance(expected, tuple) and isinstance(value, list):
-            value = tuple(value)
-        elif isinstance(expected, float) and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)
-        if not isinstance(value, type(expected)):
-            raise RetargetError(
-                f"{where}: '{key}' should be {type(expected).__name__}, got {value!r}"
-            )
-        converted[key] = value
-    return replace(default, **converted)
+    return build_dataclass(cls, values, where, RetargetError)
