@@ -109,6 +109,9 @@ def build_parser() -> argparse.ArgumentParser:
     from motionkit.retarget.command import add_commands as add_retarget_commands
 
     add_retarget_commands(stages, _add_robot_source)
+    from motionkit.jet_ident.command import add_commands as add_jet_commands
+
+    add_jet_commands(stages)
     return parser
 
 

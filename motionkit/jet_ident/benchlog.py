@@ -1,0 +1,185 @@
+"""Jet test-bench logs as CSV: one row per sample, SI units, checked row by row.
+
+The file is UTF-8 text. Lines starting with `#` are comments; a comment `# key: value` becomes
+an entry of `BenchLog.metadata`. The first other line is the header; it must name these columns
+(in any order; further columns are ignored):
+
+    time_s        time since the start of the log [s], strictly increasing, uniformly sampled
+    throttle_pct  throttle command sent to the engine's ECU [%], 0 to 100
+    thrust_n      thrust measured by the load cell [N]
+
+Errors name the file and the line (1-based, counting comments and the header). Thrust in the
+wrong unit is caught by range: a value above MAX_THRUST_N is taken for grams (a P250 gives about
+23,000 g), and a log whose thrust never exceeds KILONEWTON_CEILING while the throttle passes
+50 % is taken for kN.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from motionkit.errors import JetIdentError
+from motionkit.outputs import write_text_atomic
+
+COLUMNS = ("time_s", "throttle_pct", "thrust_n")
+MAX_THRUST_N = 1000.0  # small turbojets give at most a few hundred newtons
+MIN_THRUST_N = -50.0  # load-cell offset and ringing may dip below zero, not this far
+KILONEWTON_CEILING = 5.0  # N; a running jet past 50 % throttle gives far more than this
+MAX_JITTER = 0.25  # a sample interval may differ from the median by this fraction
+
+
+@dataclass(frozen=True)
+class BenchLog:
+    """One bench run: samples at a constant rate `1 / dt`."""
+
+    time: np.ndarray  # [s]
+    throttle: np.ndarray  # [%]
+    thrust: np.ndarray  # [N]
+    name: str = "log"
+    metadata: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def dt(self) -> float:
+        return float(np.median(np.diff(self.time)))
+
+    @property
+    def samples(self) -> int:
+        return len(self.time)
+
+    @property
+    def duration(self) -> float:
+        return float(self.time[-1] - self.time[0])
+
+
+def read_log(path: Path) -> BenchLog:
+    """The checked log in `path`, or JetIdentError naming the file, the line and the problem."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise JetIdentError(f"{path}: cannot read bench log ({exc.strerror})") from exc
+    except UnicodeDecodeError as exc:
+        raise JetIdentError(f"{path}: not a UTF-8 text file") from exc
+    return parse_log(text, str(path))
+
+
+def parse_log(text: str, source: str = "<log>") -> BenchLog:
+    metadata: dict[str, str] = {}
+    rows: list[tuple[int, list[str]]] = []
+    header: list[str] | None = None
+    header_line = 0
+    for number, cells in _numbered_rows(text):
+        first = cells[0].strip() if cells else ""
+        if not cells or (len(cells) == 1 and not first):
+            continue
+        if first.startswith("#"):
+            key, sep, value = ",".join(cells).lstrip("#").partition(":")
+            if sep:
+                metadata[key.strip()] = value.strip()
+            continue
+        if header is None:
+            header, header_line = [c.strip() for c in cells], number
+        else:
+            rows.append((number, cells))
+    if header is None:
+        raise JetIdentError(f"{source}: no header line; expected columns {', '.join(COLUMNS)}")
+    missing = [c for c in COLUMNS if c not in header]
+    if missing:
+        raise JetIdentError(
+            f"{source}: line {header_line}: missing column(s) {', '.join(missing)}; the header "
+            f"has {', '.join(header)}; expected {', '.join(COLUMNS)} (units s, %, N)"
+        )
+    if len(rows) < 2:
+        raise JetIdentError(f"{source}: {len(rows)} data row(s); a log needs at least 2")
+    index = [header.index(c) for c in COLUMNS]
+    values = np.empty((len(rows), 3))
+    lines = np.array([n for n, _ in rows])
+    for i, (number, cells) in enumerate(rows):
+        if len(cells) < len(header):
+            raise JetIdentError(
+                f"{source}: line {number}: {len(cells)} value(s), the header has {len(header)}"
+            )
+        for j, column in enumerate(index):
+            values[i, j] = _number(cells[column], source, number, COLUMNS[j])
+    log = BenchLog(values[:, 0], values[:, 1], values[:, 2], Path(source).stem, metadata)
+    check_log(log, source, lines)
+    return log
+
+
+def check_log(log: BenchLog, source: str, lines: np.ndarray | None = None) -> None:
+    """JetIdentError at the first line that breaks a rule of the format (see the module doc)."""
+
+    def fail(i: int, message: str) -> None:
+        where = f"line {int(lines[i])}" if lines is not None else f"row {i + 1}"
+        raise JetIdentError(f"{source}: {where}: {message}")
+
+    steps = np.diff(log.time)
+    bad = np.flatnonzero(steps <= 0)
+    if bad.size:
+        i = bad[0] + 1
+        fail(i, f"time {log.time[i]:g} s is not after the previous row's {log.time[i - 1]:g} s")
+    dt = float(np.median(steps))
+    bad = np.flatnonzero(np.abs(steps - dt) > MAX_JITTER * dt)
+    if bad.size:
+        i = bad[0] + 1
+        fail(i, f"sample interval {steps[i - 1]:g} s; the log is sampled every {dt:g} s")
+    bad = np.flatnonzero((log.throttle < 0) | (log.throttle > 100))
+    if bad.size:
+        fail(bad[0], f"throttle_pct {log.throttle[bad[0]]:g} is outside 0-100 %")
+    bad = np.flatnonzero(log.thrust > MAX_THRUST_N)
+    if bad.size:
+        fail(
+            bad[0],
+            f"thrust_n {log.thrust[bad[0]]:g} is above {MAX_THRUST_N:g} N; is the column in "
+            "grams? expected newtons",
+        )
+    bad = np.flatnonzero(log.thrust < MIN_THRUST_N)
+    if bad.size:
+        fail(bad[0], f"thrust_n {log.thrust[bad[0]]:g} is below {MIN_THRUST_N:g} N")
+    top = int(np.argmax(log.thrust))
+    if log.throttle.max() > 50 and log.thrust[top] < KILONEWTON_CEILING:
+        fail(
+            top,
+            f"thrust_n peaks at {log.thrust[top]:g} while the throttle reaches "
+            f"{log.throttle.max():g} %; is the column in kN? expected newtons",
+        )
+
+
+def _numbered_rows(text: str):
+    reader = csv.reader(io.StringIO(text))
+    for cells in reader:
+        yield reader.line_num, cells
+
+
+def _number(cell: str, source: str, line: int, column: str) -> float:
+    try:
+        value = float(cell)
+    except ValueError:
+        message = f"{source}: line {line}: {column} '{cell.strip()}' is not a number"
+        raise JetIdentError(message) from None
+    if not math.isfinite(value):
+        raise JetIdentError(f"{source}: line {line}: {column} is {cell.strip()}")
+    return value
+
+
+def format_log(log: BenchLog) -> str:
+    """The CSV text of `log` (metadata as comments); `parse_log` reads it back."""
+    out = io.StringIO()
+    for key, value in log.metadata.items():
+        out.write(f"# {key}: {value}\n")
+    out.write(",".join(COLUMNS) + "\n")
+    for t, u, f in zip(log.time, log.throttle, log.thrust, strict=True):
+        out.write(f"{t:.4f},{u:.2f},{f:.3f}\n")
+    return out.getvalue()
+
+
+def write_log(path: Path, log: BenchLog) -> None:
+    """Write `log` as CSV, all or nothing."""
+    check_log(log, str(path))
+    write_text_atomic(Path(path), format_log(log))

@@ -1,0 +1,156 @@
+"""The jet-identification config: frozen dataclasses, defaults here, filled from TOML recipes.
+
+A recipe has up to three tables, [bench] (the synthetic bench), [model] and [train]; a key left
+out keeps its default below.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields, replace
+from pathlib import Path
+from typing import Any
+
+from motionkit.errors import JetIdentError
+from motionkit.tomlfile import read_toml
+
+
+def _positive(config: Any, names: tuple[str, ...]) -> None:
+    for name in names:
+        if not getattr(config, name) > 0:
+            raise JetIdentError(f"{name} must be > 0, got {getattr(config, name)!r}")
+
+
+@dataclass(frozen=True)
+class BenchConfig:
+    """The synthetic bench (see synthetic.py for what each imperfection does)."""
+
+    duration_s: float = 540.0  # one identification run (the published profile: ~9 minutes)
+    rate_hz: float = 100.0  # log rate of the public P250 identification logs
+    substeps: int = 10  # RK4 steps per sample for the engine model
+    noise_std_n: float = 1.5  # load-cell noise (white, Gaussian) [N]
+    sensor_cutoff_hz: float = 5.0  # first-order low-pass of the load cell and its amplifier
+    delay_s: float = 0.03  # command to engine (ECU) delay, rounded to whole samples
+    throttle_step_pct: float = 0.5  # the ECU's throttle resolution
+    ambient_c: tuple[float, float] = (15.0, 25.0)  # per-log ambient temperature range [degC]
+    ambient_drift_c: float = 1.5  # the bench warms by this much over one log [degC]
+    reference_c: float = 15.0  # ambient of the published model (gain 1)
+    seed: int = 0  # `jet-ident simulate` default
+    train_seeds: tuple[int, ...] = (1, 2, 3, 4, 5)  # the recipe's training logs (benchmark)
+    heldout_seeds: tuple[int, ...] = (
+        101,
+        102,
+        103,
+        104,
+    )  # held-out profiles never used in training
+
+    def __post_init__(self) -> None:
+        _positive(self, ("duration_s", "rate_hz", "substeps", "sensor_cutoff_hz"))
+        if self.noise_std_n < 0 or self.delay_s < 0 or self.throttle_step_pct < 0:
+            raise JetIdentError("[bench]: noise_std_n, delay_s, throttle_step_pct must be >= 0")
+        if len(self.ambient_c) != 2 or self.ambient_c[0] > self.ambient_c[1]:
+            raise JetIdentError("[bench]: ambient_c should be [low, high] in degC")
+
+
+@dataclass(frozen=True)
+class ModelConfig:
+    hidden: int = 32  # LSTM features
+
+    def __post_init__(self) -> None:
+        _positive(self, ("hidden",))
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Truncated back-propagation through free-run windows: each window first runs `warmup`
+    samples fed the measured thrust (to set the LSTM state), then `window` samples free-run on
+    its own thrust; the loss is the mean squared free-run error (normalised)."""
+
+    warmup: int = 50  # samples
+    window: int = 300  # samples of free-run per window (gradient truncated at its start)
+    batch: int = 32  # windows per step
+    learning_rate: float = 3e-3  # Adam, cosine-decayed to 5 % over max_steps
+    max_steps: int = 3000
+    clip_norm: float = 1.0  # gradient clipping (global norm)
+    eval_every: int = 100  # steps between validation free-runs
+    patience: int = 8  # validations without improvement before stopping early
+    validation_fraction: float = 0.2  # the last part of each log validates
+    max_minutes: float = 4.5  # stop training after this wall time
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        _positive(self, ("warmup", "window", "batch", "learning_rate", "max_steps"))
+        _positive(self, ("eval_every", "patience", "max_minutes"))
+        if not 0 < self.validation_fraction < 1:
+            raise JetIdentError("[train]: validation_fraction must be between 0 and 1")
+
+
+@dataclass(frozen=True)
+class JetIdentConfig:
+    bench: BenchConfig = BenchConfig()
+    model: ModelConfig = ModelConfig()
+    train: TrainConfig = TrainConfig()
+
+    @classmethod
+    def from_toml(cls, path: Path) -> JetIdentConfig:
+        return cls.from_dict(read_toml(path, "config", JetIdentError), str(path))
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str = "<config>") -> JetIdentConfig:
+        tables = {"bench": BenchConfig, "model": ModelConfig, "train": TrainConfig}
+        unknown = sorted(set(data) - set(tables))
+        if unknown:
+            raise JetIdentError(f"{source}: unknown tables {unknown}; known: {sorted(tables)}")
+        values = {}
+        for name, kind in tables.items():
+            table = data.get(name, {})
+            if not isinstance(table, dict):
+                raise JetIdentError(f"{source}: '{name}' should be a table [{name}]")
+            values[name] = _build(kind, table, f"{source}: [{name}]")
+        return cls(**values)
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def to_toml(self) -> str:
+        """The resolved config as TOML (what `from_toml` reads back)."""
+        lines = []
+        for name, table in self.to_dict().items():
+            lines.append(f"[{name}]")
+            lines += [f"{key} = {_toml_value(value)}" for key, value in table.items()]
+            lines.append("")
+        return "\n".join(lines)
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    return repr(value)
+
+
+def _build(cls: type, values: dict[str, Any], where: str) -> Any:
+    known = {f.name for f in fields(cls)}
+    unknown = sorted(set(values) - known)
+    if unknown:
+        raise JetIdentError(f"{where}: unknown keys {unknown}; known: {sorted(known)}")
+    default = cls()
+    converted = {}
+    for key, value in values.items():
+        expected = getattr(default, key)
+        if isinstance(expected, tuple) and isinstance(value, list):
+            kind = type(expected[0]) if expected else object
+            value = tuple(float(v) if kind is float and isinstance(v, int) else v for v in value)
+        elif isinstance(expected, float) and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        if not isinstance(value, type(expected)) or isinstance(value, bool) != isinstance(
+            expected, bool
+        ):
+            raise JetIdentError(
+                f"{where}: '{key}' should be {type(expected).__name__}, got {value!r}"
+            )
+        converted[key] = value
+    try:
+        return replace(default, **converted)
+    except JetIdentError as exc:
+        raise JetIdentError(f"{where}: {exc}") from exc

@@ -1,0 +1,112 @@
+"""The fitted thrust model as one file: a NumPy .npz archive (no pickles).
+
+Arrays: w_input (2, 4H), w_hidden (H, 4H), bias (4H), w_out (H), b_out () as step.LSTMThrust
+holds them (float32), and `metadata`: UTF-8 JSON bytes with
+
+    format, version       "motionkit.jet_ident.lstm", 1
+    dt                    sample interval [s] the model steps by
+    normalisation         thrust_mean, thrust_std [N], throttle_mean, throttle_std [%],
+                          rate_scale [N/s]
+    hidden                LSTM features
+    baselines             {"grey_box": {"coeffs": [13]}, "first_order": {"tau", "static"}}
+                          fitted in the same run (optional)
+    anything else         the fit's config, logs, metrics (free-form)
+"""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+from typing import Any
+
+import jax.numpy as jnp
+import numpy as np
+
+from motionkit.errors import JetIdentError
+from motionkit.jet_ident.baselines import FirstOrderLag, GreyBox
+from motionkit.jet_ident.model import Normalisation
+from motionkit.jet_ident.step import LSTMThrust
+from motionkit.outputs import atomic_output
+
+FORMAT, VERSION = "motionkit.jet_ident.lstm", 1
+ARRAYS = ("w_input", "w_hidden", "bias", "w_out", "b_out")
+NORMALISATION = ("thrust_mean", "thrust_std", "throttle_mean", "throttle_std", "rate_scale")
+
+
+def save_model(path: Path, params: LSTMThrust, metadata: dict[str, Any] | None = None) -> None:
+    """Write `params` and `metadata` (JSON-serialisable) to `path`, all or nothing."""
+    norm = {name: float(getattr(params.norm, name)) for name in NORMALISATION}
+    header = {
+        **(metadata or {}),
+        "format": FORMAT,
+        "version": VERSION,
+        "dt": float(params.dt),
+        "hidden": params.hidden,
+        "normalisation": norm,
+    }
+    arrays = {name: np.asarray(getattr(params, name), dtype=np.float32) for name in ARRAYS}
+    buffer = io.BytesIO()
+    np.savez(buffer, metadata=np.frombuffer(json.dumps(header).encode(), np.uint8), **arrays)
+    with atomic_output(Path(path)) as stream:
+        stream.write(buffer.getvalue())
+
+
+def load_model(path: Path) -> tuple[LSTMThrust, dict[str, Any]]:
+    """The model and metadata in `path`, or JetIdentError saying what is wrong."""
+    try:
+        with np.load(Path(path), allow_pickle=False) as archive:
+            contents = {name: archive[name] for name in archive.files}
+    except OSError as exc:
+        raise JetIdentError(f"{path}: cannot read the thrust model ({exc})") from exc
+    except ValueError as exc:
+        raise JetIdentError(f"{path}: not a motionkit thrust model (.npz) ({exc})") from exc
+    missing = [name for name in (*ARRAYS, "metadata") if name not in contents]
+    if missing:
+        raise JetIdentError(f"{path}: not a motionkit thrust model; missing {', '.join(missing)}")
+    try:
+        metadata = json.loads(contents["metadata"].tobytes().decode())
+        norm = Normalisation(
+            **{name: float(metadata["normalisation"][name]) for name in NORMALISATION}
+        )
+        dt = float(metadata["dt"])
+    except (ValueError, KeyError, TypeError) as exc:
+        raise JetIdentError(f"{path}: metadata is unreadable or incomplete ({exc})") from exc
+    if metadata.get("format") != FORMAT or metadata.get("version") != VERSION:
+        raise JetIdentError(
+            f"{path}: format {metadata.get('format')!r} version {metadata.get('version')!r}; "
+            f"expected {FORMAT!r} version {VERSION}"
+        )
+    w = {name: jnp.asarray(contents[name]) for name in ARRAYS}
+    hidden = w["w_hidden"].shape[0]
+    shapes = {"w_input": (2, 4 * hidden), "w_hidden": (hidden, 4 * hidden), "bias": (4 * hidden,)}
+    shapes |= {"w_out": (hidden,), "b_out": ()}
+    for name, shape in shapes.items():
+        if w[name].shape != shape:
+            raise JetIdentError(f"{path}: {name} has shape {w[name].shape}, expected {shape}")
+    return LSTMThrust(**w, norm=norm, dt=dt), metadata
+
+
+def baselines_metadata(grey_box: GreyBox, first_order: FirstOrderLag) -> dict[str, Any]:
+    return {
+        "grey_box": {"coeffs": list(grey_box.coeffs)},
+        "first_order": {"tau": first_order.tau, "static": list(first_order.static)},
+    }
+
+
+def baselines_from_metadata(metadata: dict[str, Any]) -> dict[str, GreyBox | FirstOrderLag]:
+    """The baselines stored beside the LSTM ({} when there are none)."""
+    stored = metadata.get("baselines") or {}
+    out: dict[str, GreyBox | FirstOrderLag] = {}
+    try:
+        if "grey_box" in stored:
+            out["grey-box 2nd order"] = GreyBox(
+                tuple(float(c) for c in stored["grey_box"]["coeffs"])
+            )
+        if "first_order" in stored:
+            lag = stored["first_order"]
+            static = tuple(float(a) for a in lag["static"])
+            out["first-order lag"] = FirstOrderLag(float(lag["tau"]), static)  # type: ignore[arg-type]
+    except (KeyError, TypeError, ValueError) as exc:
+        raise JetIdentError(f"the model's baselines are unreadable ({exc})") from exc
+    return out

@@ -1,0 +1,88 @@
+"""The identification run: the LSTM and both baselines fitted to the same logs, all three
+free-run on the held-back validation part of every log."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+from motionkit.jet_ident.baselines import FirstOrderLag, GreyBox, fit_first_order, fit_grey_box
+from motionkit.jet_ident.benchlog import BenchLog
+from motionkit.jet_ident.config import JetIdentConfig
+from motionkit.jet_ident.evaluate import LSTMRunner, Metrics, evaluate, noise_floor
+from motionkit.jet_ident.train import TrainResult, train_lstm
+
+SMOOTHING_S = (0.3, 0.5, 0.7, 1.0)  # baseline derivative filters tried; validation picks one
+LSTM, GREY_BOX, FIRST_ORDER = "LSTM", "grey-box 2nd order", "first-order lag"
+
+
+@dataclass
+class Identification:
+    training: TrainResult
+    grey_box: GreyBox
+    first_order: FirstOrderLag
+    smoothing_s: float  # the baselines' filter width
+    validation: list[BenchLog]
+    metrics: dict[str, Metrics]  # on the validation parts
+    floor: tuple[float, float]  # noise floor (MAE, RMSE) of the validation parts
+
+    def models(self) -> dict[str, LSTMRunner | GreyBox | FirstOrderLag]:
+        return {
+            LSTM: LSTMRunner(self.training.params),
+            GREY_BOX: self.grey_box,
+            FIRST_ORDER: self.first_order,
+        }
+
+
+def head_and_tail(log: BenchLog, fraction: float) -> tuple[BenchLog, BenchLog]:
+    cut = round(log.samples * (1 - fraction))
+    parts = [slice(0, cut), slice(cut, None)]
+    return tuple(  # type: ignore[return-value]
+        BenchLog(log.time[s], log.throttle[s], log.thrust[s], f"{log.name}[{part}]", log.metadata)
+        for s, part in zip(parts, ("train", "validation"), strict=True)
+    )
+
+
+def identify(
+    logs: Sequence[BenchLog],
+    config: JetIdentConfig,
+    progress: Callable[[str], None] | None = None,
+) -> Identification:
+    """Fit the LSTM (train.py) and the baselines (their filter width chosen by validation RMSE)
+    on the first part of every log; score all three on the rest."""
+    say = progress or (lambda _: None)
+    fraction, warmup = config.train.validation_fraction, config.train.warmup
+    halves = [head_and_tail(log, fraction) for log in logs]
+    train = [h for h, _ in halves]
+    validation = [t for _, t in halves]
+    say(f"training the LSTM on {sum(t.samples for t in train)} samples of {len(logs)} log(s)")
+    training = train_lstm(logs, config.model, config.train, progress)
+    say(f"LSTM: best at step {training.best_step} ({training.stopped}, {training.seconds:.0f} s)")
+    candidates = []
+    for smoothing in SMOOTHING_S:
+        pair = {
+            GREY_BOX: fit_grey_box(train, smoothing),
+            FIRST_ORDER: fit_first_order(train, smoothing),
+        }
+        scores, _ = evaluate(pair, validation, warmup)
+        candidates.append((smoothing, pair, scores))
+    grey = min(candidates, key=lambda c: c[2][GREY_BOX].rmse)
+    lag = min(candidates, key=lambda c: c[2][FIRST_ORDER].rmse)
+    say(f"baselines: filter {grey[0]:g} s (grey box), {lag[0]:g} s (first-order lag)")
+    result = Identification(
+        training,
+        grey[1][GREY_BOX],
+        lag[1][FIRST_ORDER],
+        grey[0],
+        validation,
+        {},
+        noise_floor(validation),
+    )
+    result.metrics, _ = evaluate(result.models(), validation, warmup)
+    return result
+
+
+def lstm_wins(metrics: dict[str, Metrics]) -> bool:
+    """Whether the LSTM has the lowest MAE and RMSE of all models."""
+    others = [m for name, m in metrics.items() if name != LSTM]
+    return all(metrics[LSTM].mae < m.mae and metrics[LSTM].rmse < m.rmse for m in others)

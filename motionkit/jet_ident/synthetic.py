@@ -1,0 +1,116 @@
+"""A synthetic JetCat P250 test bench: realistic identification logs from the published model.
+
+No P250 bench log is public, so logs are made from the published second-order model (p250.py)
+with the imperfections of a real bench, in this order (all in BenchConfig, all seeded):
+
+1. Identification profile: after 5 s at idle, a random sequence of steps (held 2-8 s), ramps
+   (2-20 s, then held 1-4 s) and exponential chirps (0.01 Hz up to 0.2-0.6 Hz, amplitude 5-20 %,
+   20-60 s) around 10/30/50/70/90 % (+-5 %), ending with 8 s at idle. The logged throttle is
+   this command (0.01 % resolution).
+2. The engine sees the command `delay_s` later (whole samples), quantised to
+   `throttle_step_pct` (the ECU's resolution).
+3. The engine: the published model, `substeps` RK4 steps per sample, starting at equilibrium.
+4. Ambient temperature: thrust scales with air density, gain = (273.15 + reference_c) /
+   (273.15 + ambient); the ambient is drawn uniformly in `ambient_c` per log and rises by
+   `ambient_drift_c` over the log as the bench warms.
+5. The load cell: a first-order low-pass at `sensor_cutoff_hz` (on the fine time grid), then
+   white Gaussian noise of `noise_std_n`, logged at `rate_hz`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.signal import lfilter
+
+from motionkit.jet_ident.benchlog import BenchLog
+from motionkit.jet_ident.config import BenchConfig
+from motionkit.jet_ident.p250 import P250_COEFFS, simulate, steady_thrust
+
+LEVELS = (10.0, 30.0, 50.0, 70.0, 90.0)  # % throttle the profile moves around
+
+
+@dataclass(frozen=True)
+class SyntheticRun:
+    log: BenchLog  # what the bench records
+    clean: np.ndarray  # the load cell's signal before noise [N] (for the noise floor)
+    engine_thrust: np.ndarray  # the engine's thrust at the log's samples [N]
+    ambient_c: float  # ambient temperature at the start [degC]
+
+
+def identification_profile(
+    duration_s: float, rate_hz: float, rng: np.random.Generator
+) -> np.ndarray:
+    """Throttle [%] at `rate_hz` for `duration_s` (see the module doc, item 1)."""
+    n = round(duration_s * rate_hz)
+    parts = [np.zeros(round(5 * rate_hz))]
+    current = 0.0
+    while sum(len(p) for p in parts) < n:
+        kind = rng.choice(3, p=[0.4, 0.3, 0.3])
+        target = float(np.clip(rng.choice(LEVELS) + rng.uniform(-5, 5), 0, 100))
+        if kind == 0:  # step and hold
+            segment = np.full(round(rng.uniform(2, 8) * rate_hz), target)
+        elif kind == 1:  # ramp, then hold
+            ramp = np.linspace(current, target, round(rng.uniform(2, 20) * rate_hz))
+            segment = np.concatenate([ramp, np.full(round(rng.uniform(1, 4) * rate_hz), target)])
+        else:  # exponential chirp around the current level
+            seconds = rng.uniform(20, 60)
+            f0, f1 = 0.01, rng.uniform(0.2, 0.6)
+            t = np.arange(round(seconds * rate_hz)) / rate_hz
+            rate = np.log(f1 / f0) / seconds
+            phase = 2 * np.pi * f0 * np.expm1(rate * t) / rate
+            centre = float(np.clip(current, 10, 90))
+            amplitude = rng.uniform(5, 20)
+            segment = np.clip(centre + amplitude * np.sin(phase), 0, 100)
+        parts.append(segment)
+        current = float(segment[-1])
+    end = round(8 * rate_hz)
+    profile = np.concatenate(parts)[: max(n - end, 0)]
+    down = np.linspace(current, 0.0, round(rate_hz))
+    profile = np.concatenate([profile, down, np.zeros(end)])[:n]
+    return np.round(profile, 2)
+
+
+def synthetic_run(
+    config: BenchConfig, seed: int, throttle: np.ndarray | None = None
+) -> SyntheticRun:
+    """One bench log of the P250 on `throttle` (by default the seeded identification profile)."""
+    rng = np.random.default_rng(seed)
+    dt = 1.0 / config.rate_hz
+    if throttle is None:
+        throttle = identification_profile(config.duration_s, config.rate_hz, rng)
+    n = len(throttle)
+    delay = round(config.delay_s / dt)
+    engine_u = np.concatenate([np.full(delay, throttle[0]), throttle[: n - delay]])
+    if config.throttle_step_pct > 0:
+        engine_u = np.round(engine_u / config.throttle_step_pct) * config.throttle_step_pct
+
+    h = dt / config.substeps
+    fine_u = np.repeat(engine_u, config.substeps)
+    start = float(steady_thrust(P250_COEFFS, engine_u[0]))
+    states = simulate(P250_COEFFS, fine_u, h, start, 0.0, substeps=1)
+    thrust = np.concatenate([[start], states[:-1, 0]])  # thrust at the start of each fine step
+
+    ambient0 = rng.uniform(*config.ambient_c)
+    ambient = ambient0 + config.ambient_drift_c * np.arange(n * config.substeps) / (
+        n * config.substeps
+    )
+    gain = (273.15 + config.reference_c) / (273.15 + ambient)
+    force = gain * thrust
+    a = np.exp(-2 * np.pi * config.sensor_cutoff_hz * h)
+    sensor, _ = lfilter([1 - a], [1, -a], force, zi=[a * force[0]])
+    clean = sensor[:: config.substeps]
+    measured = clean + config.noise_std_n * rng.standard_normal(n)
+
+    metadata = {
+        "source": "motionkit synthetic P250 bench (published second-order model)",
+        "seed": str(seed),
+        "ambient_c": f"{ambient0:.2f}",
+        "noise_std_n": f"{config.noise_std_n:g}",
+        "sensor_cutoff_hz": f"{config.sensor_cutoff_hz:g}",
+        "delay_s": f"{delay * dt:g}",
+        "throttle_step_pct": f"{config.throttle_step_pct:g}",
+    }
+    log = BenchLog(np.arange(n) * dt, throttle, np.round(measured, 3), f"p250_seed{seed}", metadata)
+    return SyntheticRun(log, clean, gain[:: config.substeps] * thrust[:: config.substeps], ambient0)

@@ -1,0 +1,56 @@
+"""The published P250 model: derivative values by hand, equilibria, rise time, integration."""
+
+import numpy as np
+import pytest
+
+from motionkit.jet_ident.p250 import P250_COEFFS, simulate, steady_thrust, thrust_acceleration
+
+
+def test_acceleration_at_the_normalisation_centre_is_65_793_c0() -> None:
+    # t = td = v = 0: Tddot = 65.793 * c0 = 65.793 * -0.4647
+    value = thrust_acceleration(P250_COEFFS, 108.309, 0.0, 47.333)
+    assert value == pytest.approx(-30.5740071, abs=1e-6)
+
+
+def test_acceleration_at_unit_normalised_point() -> None:
+    # t = td = v = 1: f = c0 + ... + c5 = -12.9373, g = c6 + ... + c11 = 5.8208,
+    # v + c12 v^2 = 0.99217; Tddot = 65.793 * (-12.9373 + 5.8208 * 0.99217) = -471.2143...
+    thrust, rate, throttle = 108.309 + 65.793, 65.793, 47.333 + 31.483
+    expected = 65.793 * (-12.9373 + 5.8208 * 0.99217)
+    assert thrust_acceleration(P250_COEFFS, thrust, rate, throttle) == pytest.approx(expected)
+    assert expected == pytest.approx(-471.2143, abs=1e-3)
+
+
+def test_acceleration_mixed_point_term_by_term() -> None:
+    # t = -1, td = 0.5, v = -1 (T = 42.516 N, Tdot = 32.8965 N/s, u = 15.85 %)
+    t, td, v = -1.0, 0.5, -1.0
+    c = P250_COEFFS
+    f = c[0] + c[1] * t + c[2] * td + c[3] * t * td + c[4] * t * t + c[5] * td * td
+    g = c[6] + c[7] * t + c[8] * td + c[9] * t * td + c[10] * t * t + c[11] * td * td
+    assert f == pytest.approx(-0.4647 + 8.1317 - 3.0977 - 0.33055 + 1.6767 - 0.120825)
+    assert g == pytest.approx(8.78 + 1.011 - 0.2932 - 0.25955 - 0.4238 - 0.364275)
+    expected = 65.793 * (f + g * (v + c[12] * v * v))
+    value = thrust_acceleration(P250_COEFFS, 42.516, 32.8965, 15.85)
+    assert value == pytest.approx(expected, rel=1e-9)
+
+
+def test_equilibria_match_the_published_figures() -> None:
+    idle, full = steady_thrust(P250_COEFFS, np.array([0.0, 100.0]))
+    assert 10 <= idle <= 16.5 and idle == pytest.approx(16.0, abs=0.1)
+    assert 222 <= full <= 237
+    assert abs(thrust_acceleration(P250_COEFFS, full, 0.0, 100.0)) < 1e-6
+
+
+def test_idle_to_full_rise_time_is_about_1_4_s() -> None:
+    idle, full = steady_thrust(P250_COEFFS, np.array([0.0, 100.0]))
+    states = simulate(P250_COEFFS, np.full(800, 100.0), 0.01, idle)
+    reached = np.argmax(states[:, 0] >= idle + 0.632 * (full - idle))
+    assert 1.3 <= (reached + 1) * 0.01 <= 1.5
+    assert states[-1, 0] == pytest.approx(full, abs=0.5)
+
+
+def test_rk4_substeps_agree_with_a_much_finer_integration() -> None:
+    throttle = np.repeat([20.0, 80.0, 40.0], 150)
+    coarse = simulate(P250_COEFFS, throttle, 0.01, 40.0, substeps=2)
+    fine = simulate(P250_COEFFS, throttle, 0.01, 40.0, substeps=40)
+    assert np.max(np.abs(coarse[:, 0] - fine[:, 0])) < 0.02
