@@ -39,10 +39,15 @@ def build_dataclass(
             value = tuple(float(v) if _is_int(v) and _floats(expected) else v for v in value)
         elif isinstance(expected, float) and _is_int(value):
             value = float(value)
-        if not isinstance(value, type(expected)):
+        if not isinstance(value, type(expected)) or isinstance(value, bool) != isinstance(
+            expected, bool
+        ):
             raise error(f"{where}: '{key}' should be {type(expected).__name__}, got {value!r}")
         converted[key] = value
-    return replace(default, **converted)
+    try:
+        return replace(default, **converted)
+    except error as exc:  # the dataclass's own checks, located
+        raise error(f"{where}: {exc}") from exc
 
 
 def _is_int(value: object) -> bool:

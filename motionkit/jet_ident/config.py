@@ -6,12 +6,12 @@ out keeps its default below.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 from motionkit.errors import JetIdentError
-from motionkit.tomlfile import read_toml
+from motionkit.tomlfile import build_dataclass, read_toml
 
 
 def _positive(config: Any, names: tuple[str, ...]) -> None:
@@ -130,27 +130,4 @@ def _toml_value(value: Any) -> str:
 
 
 def _build(cls: type, values: dict[str, Any], where: str) -> Any:
-    known = {f.name for f in fields(cls)}
-    unknown = sorted(set(values) - known)
-    if unknown:
-        raise JetIdentError(f"{where}: unknown keys {unknown}; known: {sorted(known)}")
-    default = cls()
-    converted = {}
-    for key, value in values.items():
-        expected = getattr(default, key)
-        if isinstance(expected, tuple) and isinstance(value, list):
-            kind = type(expected[0]) if expected else object
-            value = tuple(float(v) if kind is float and isinstance(v, int) else v for v in value)
-        elif isinstance(expected, float) and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)
-        if not isinstance(value, type(expected)) or isinstance(value, bool) != isinstance(
-            expected, bool
-        ):
-            raise JetIdentError(
-                f"{where}: '{key}' should be {type(expected).__name__}, got {value!r}"
-            )
-        converted[key] = value
-    try:
-        return replace(default, **converted)
-    except JetIdentError as exc:
-        raise JetIdentError(f"{where}: {exc}") from exc
+    return build_dataclass(cls, values, where, JetIdentError)
