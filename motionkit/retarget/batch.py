@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import multiprocessing
 import re
 import sys
 import time as clock
@@ -173,7 +174,9 @@ def retarget_all(
             if report is not None:
                 report(results[i], len(results), len(clips))
     else:
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
+        # spawned, not forked: a fork of a process that runs JAX or BLAS threads can deadlock
+        spawn = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(max_workers=jobs, mp_context=spawn) as pool:
             futures = {
                 pool.submit(retarget_clip, clip, out, config, robot_files): i
                 for i, clip in enumerate(clips)
