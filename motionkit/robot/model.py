@@ -198,7 +198,7 @@ def ironcub() -> Robot:
     """The iRonCub model built from icub-models (built once per process)."""
     from importlib.metadata import version
 
-    from motionkit.robot.ironcub import SOURCE_MODEL, build_ironcub_model
+    from motionkit.robot.ironcub_build import SOURCE_MODEL, build_ironcub_model
 
     spec = RobotSpec.builtin("ironcub")
     model = build_ironcub_model(keep_frames=spec.frames)

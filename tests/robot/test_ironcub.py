@@ -174,3 +174,11 @@ def test_against_reference_urdf_at_random_configurations(reference_urdf) -> None
             angle = np.linalg.norm(pin.log3(ours[frame].rotation.T @ ref[frame].rotation))
             assert np.degrees(angle) < 0.1, frame
         assert np.linalg.norm(our_com - ref_com) < 5e-3
+
+
+def test_ironcub_stays_a_function_after_the_build() -> None:
+    """The builder module must not shadow `motionkit.robot.ironcub` once it is imported."""
+    import motionkit.robot
+
+    ironcub()
+    assert callable(motionkit.robot.ironcub)
