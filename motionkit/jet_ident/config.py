@@ -6,7 +6,7 @@ out keeps its default below.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +42,19 @@ class BenchConfig:
         103,
         104,
     )  # held-out profiles never used in training
+
+    def ideal(self) -> BenchConfig:
+        """The same bench without its imperfections: no noise, sensor lag, delay, throttle
+        quantisation or temperature effect (the published model alone)."""
+        return replace(
+            self,
+            noise_std_n=0.0,
+            sensor_cutoff_hz=1e4,
+            delay_s=0.0,
+            throttle_step_pct=0.0,
+            ambient_c=(15.0, 15.0),
+            ambient_drift_c=0.0,
+        )
 
     def __post_init__(self) -> None:
         _positive(self, ("duration_s", "rate_hz", "substeps", "sensor_cutoff_hz"))

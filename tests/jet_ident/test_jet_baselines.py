@@ -51,14 +51,7 @@ def test_first_order_from_a_log_it_generated() -> None:
 
 
 def test_grey_box_from_a_clean_p250_log_reproduces_it() -> None:
-    ideal = BenchConfig(
-        noise_std_n=0.0,
-        sensor_cutoff_hz=1e4,
-        delay_s=0.0,
-        throttle_step_pct=0.0,
-        ambient_c=(15.0, 15.0),
-        ambient_drift_c=0.0,
-    )
+    ideal = BenchConfig().ideal()
     t = np.arange(15000) * 0.01
     throttle = 50 + 30 * np.sin(2 * np.pi * 0.03 * t) + 12 * np.sin(2 * np.pi * 0.23 * t + 1)
     log = synthetic_run(replace(ideal, duration_s=150.0), 0, np.clip(throttle, 0, 100)).log

@@ -11,15 +11,7 @@ from motionkit.jet_ident.p250 import P250_COEFFS, simulate, steady_thrust
 from motionkit.jet_ident.synthetic import identification_profile, synthetic_run
 
 SHORT = BenchConfig(duration_s=120.0)
-IDEAL = replace(
-    SHORT,
-    noise_std_n=0.0,
-    sensor_cutoff_hz=1e4,
-    delay_s=0.0,
-    throttle_step_pct=0.0,
-    ambient_c=(15.0, 15.0),
-    ambient_drift_c=0.0,
-)
+IDEAL = SHORT.ideal()
 
 
 def test_profile_is_seeded_and_covers_the_range() -> None:
