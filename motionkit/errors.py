@@ -27,3 +27,7 @@ class TrajoptError(MotionkitError):
 
 class JetIdentError(MotionkitError):
     """A jet bench log, thrust model file or identification config is malformed."""
+
+
+class TrainError(MotionkitError):
+    """A training config, prior dataset, checkpoint or run folder is invalid or missing."""

@@ -1,0 +1,87 @@
+"""The paper's prior ablation: one config trained with both priors, walk only, flight only and
+no prior; their final evaluations compared on a radar chart (episode duration, reward, thrust
+usage), each axis scaled by the largest value of the four."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from motionkit.errors import TrainError
+from motionkit.outputs import atomic_output, write_text_atomic
+from motionkit.robot import Robot
+from motionkit.train.config import TrainConfig
+
+SETTINGS = {
+    "walk+flight": ["walk", "flight"],
+    "walk": ["walk"],
+    "flight": ["flight"],
+    "none": [],
+}
+AXES = {  # radar axis -> evaluation figure
+    "episode duration [s]": "eval_episode_seconds",
+    "task reward": "eval_task_reward",
+    "thrust usage": "eval_thrust_usage",
+}
+
+
+def run_ablation(
+    config: TrainConfig,
+    out: Path,
+    robot: Robot,
+    progress: Callable[[str], None] = print,
+) -> dict[str, Any]:
+    """Train the four settings into OUT/<setting>/ (a setting with a summary.json is kept),
+    then write OUT/ablation.json and OUT/ablation.png."""
+    from motionkit.train.run import train
+
+    missing = [name for name in ("walk", "flight") if name not in config.priors]
+    if missing:
+        raise TrainError(f"the ablation needs [priors.walk] and [priors.flight]; missing {missing}")
+    out = Path(out)
+    figures: dict[str, dict[str, float]] = {}
+    for setting, priors in SETTINGS.items():
+        folder = out / setting.replace("+", "_")
+        summary_path = folder / "summary.json"
+        if summary_path.exists():
+            progress(f"{setting}: kept the finished run in {folder}")
+            summary = json.loads(summary_path.read_text())
+        else:
+            progress(f"{setting}: training into {folder}")
+            summary = train(config.select_priors(priors), folder, robot, progress=progress)
+        evaluation = summary.get("eval") or {}
+        figures[setting] = {axis: float(evaluation.get(key, 0.0)) for axis, key in AXES.items()}
+    result = {"settings": dict(SETTINGS), "figures": figures}
+    write_text_atomic(out / "ablation.json", json.dumps(result, indent=2) + "\n")
+    radar_chart(out / "ablation.png", figures)
+    return result
+
+
+def radar_chart(path: Path, figures: dict[str, dict[str, float]]) -> None:
+    """One polygon per setting over the axes, each axis divided by its largest |value|."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        import numpy as np
+    except ImportError as exc:
+        raise TrainError("the radar chart needs matplotlib (the [train] extra)") from exc
+    axes = list(next(iter(figures.values())))
+    scale = {a: max(abs(f[a]) for f in figures.values()) or 1.0 for a in axes}
+    angles = np.linspace(0, 2 * np.pi, len(axes), endpoint=False).tolist()
+    figure, ax = plt.subplots(figsize=(6, 6), subplot_kw={"polar": True})
+    for setting, values in figures.items():
+        radii = [values[a] / scale[a] for a in axes]
+        ax.plot([*angles, angles[0]], [*radii, radii[0]], label=setting)
+        ax.fill([*angles, angles[0]], [*radii, radii[0]], alpha=0.1)
+    ax.set_xticks(angles)
+    ax.set_xticklabels([f"{a}\n(max {scale[a]:.3g})" for a in axes])
+    ax.set_ylim(min(0.0, *(v[a] / scale[a] for v in figures.values() for a in axes)), 1.0)
+    ax.set_title("Prior ablation (final evaluation, scaled per axis)")
+    ax.legend(loc="upper right", bbox_to_anchor=(1.3, 1.1))
+    with atomic_output(Path(path)) as stream:
+        figure.savefig(stream, format="png", dpi=100, bbox_inches="tight")
+    plt.close(figure)

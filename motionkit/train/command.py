@@ -1,0 +1,159 @@
+"""`motionkit train` and `motionkit train ablation`: thin wrappers over motionkit.train."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from dataclasses import replace
+from pathlib import Path
+
+from motionkit.errors import TrainError
+
+EXTRA = (
+    "train needs the [train] extra (jax, flax, optax, mujoco, mujoco-mjx): "
+    "pip install 'motionkit[train]'"
+)
+PRIOR_CHOICES = "walk,flight|walk|flight|none"
+
+EPILOG = """\
+The config is a TOML recipe with tables [env], [reward], [ppo], [amp], [run] and one
+[priors.NAME] table per motion prior, e.g.
+  [priors.walk]
+  paths = ["datasets/walk"]        # MCAP clips or folders (relative to the working directory)
+  weight = 1.0
+Recipes: train/paper_gpu.toml (the paper's settings, 4,096 environments on one GPU) and
+train/tiny_cpu.toml (seconds per iteration on a CPU). A key left out keeps its default.
+
+Outputs in --out: config.toml (resolved), train.csv and eval.csv (metrics per iteration and
+per evaluation), tensorboard/ (with tensorboardX installed), checkpoint.msgpack (the latest
+learner; --resume continues from it), rollouts/iter_N.mcap (the first evaluation episode, with
+its waypoints in the metadata, for `motionkit view`), summary.json.
+
+Evaluation figures: waypoints reached per episode, share of time airborne and on the ground,
+thrust usage (mean T / T_max), falls per episode, episode duration.
+
+  motionkit train --config train/tiny_cpu.toml --out runs/tiny --priors none
+  motionkit train --config train/paper_gpu.toml --out runs/paper
+  motionkit train ablation --config train/paper_gpu.toml --out runs/ablation"""
+
+
+def add_commands(stages: argparse._SubParsersAction) -> None:
+    parser = stages.add_parser(
+        "train",
+        help="train the walking-and-flying AMP policy on MJX (PPO + discriminator)",
+        description="Train one policy that imitates the walking and flying priors (AMP style "
+        "reward) and reaches waypoints on the ground and in the air (task reward), in MuJoCo "
+        "MJX on the robot's MJCF. `motionkit train ablation` runs the four prior settings.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    _common(parser, required=False)
+    parser.add_argument("--resume", action="store_true", help="continue the run in --out")
+    parser.set_defaults(handler=_train)
+    actions = parser.add_subparsers(dest="train_command", metavar="ACTION")
+    ablation = actions.add_parser(
+        "ablation",
+        help="train with walk+flight, walk, flight and no priors; draw the radar chart",
+        description="Run the paper's prior ablation: the same config trained four times (both "
+        "priors, walk only, flight only, none) into OUT/<setting>/, then compare their final "
+        "evaluations (episode duration, reward, thrust usage) in OUT/ablation.json and the "
+        "radar chart OUT/ablation.png.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    _common(ablation, priors=False)
+    ablation.set_defaults(handler=_ablation)
+
+
+def _common(parser: argparse.ArgumentParser, priors: bool = True, required: bool = True) -> None:
+    # `train` checks --config and --out itself, so that `train ablation --config ...` parses
+    parser.add_argument("--config", type=Path, required=required, help="TOML recipe (required)")
+    parser.add_argument("--out", type=Path, required=required, help="output folder (required)")
+    if priors:
+        parser.add_argument(
+            "--priors",
+            metavar=PRIOR_CHOICES,
+            help="comma-separated [priors.*] names to use, or 'none' (default: all in the config)",
+        )
+    parser.add_argument("--iterations", type=int, help="override [run] iterations")
+    parser.add_argument("--seed", type=int, help="override [run] seed")
+
+
+def _require_train_extra() -> None:
+    try:
+        import flax  # noqa: F401
+        import jax  # noqa: F401
+        import mujoco  # noqa: F401
+        import optax  # noqa: F401
+        from mujoco import mjx  # noqa: F401
+    except ImportError as exc:
+        raise TrainError(f"{EXTRA} ({exc.name} is missing)") from exc
+
+
+def parse_priors(text: str | None, available: list[str]) -> list[str]:
+    """`--priors` as a list of names ('none' -> [], None -> every prior of the config)."""
+    if text is None:
+        return list(available)
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if names == ["none"]:
+        return []
+    if not names or "none" in names:
+        raise TrainError(f"--priors {text!r}: expected {PRIOR_CHOICES}")
+    return names
+
+
+def _config(args: argparse.Namespace):  # -> TrainConfig
+    from motionkit.train.config import RunConfig, TrainConfig
+
+    config = TrainConfig.from_toml(args.config)
+    run: RunConfig = config.run
+    if args.iterations is not None:
+        if args.iterations < 1:
+            raise TrainError(f"--iterations {args.iterations}: at least 1")
+        run = replace(run, iterations=args.iterations)
+    if args.seed is not None:
+        run = replace(run, seed=args.seed)
+    return replace(config, run=run)
+
+
+def _enable_compile_cache() -> None:
+    """Keep XLA's compiled programs in the user cache: a resumed run or the next setting of an
+    ablation skips most of the minutes MJX takes to compile."""
+    import jax
+
+    from motionkit.robot import cache_dir
+
+    jax.config.update("jax_compilation_cache_dir", str(cache_dir() / "jax"))
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 2.0)
+
+
+def _train(args: argparse.Namespace) -> int:
+    if args.config is None or args.out is None:
+        raise TrainError("train needs --config TOML and --out DIR (see motionkit train --help)")
+    _require_train_extra()
+    from motionkit.robot import ironcub
+    from motionkit.train.run import train
+
+    config = _config(args)
+    config = config.select_priors(parse_priors(args.priors, list(config.priors)))
+    _enable_compile_cache()
+    summary = train(config, args.out, ironcub(), resume=args.resume, progress=_print)
+    print(f"wrote {args.out}: {summary['iterations']} iterations in {summary['seconds']:.0f} s")
+    return 0
+
+
+def _ablation(args: argparse.Namespace) -> int:
+    _require_train_extra()
+    from motionkit.robot import ironcub
+    from motionkit.train.ablation import run_ablation
+
+    config = _config(args)
+    _enable_compile_cache()
+    result = run_ablation(config, args.out, ironcub(), progress=_print)
+    print(json.dumps(result["figures"], indent=2))
+    print(f"wrote {args.out}/ablation.json and {args.out}/ablation.png")
+    return 0
+
+
+def _print(line: str) -> None:
+    print(line, flush=True)

@@ -1,0 +1,282 @@
+"""The trainer's config: frozen dataclasses with their defaults here, filled from TOML recipes.
+
+A recipe has the tables [env], [reward], [ppo], [amp], [run] and one [priors.NAME] table per
+motion prior (paths of MCAP clips or folders, a weight); a key left out keeps its default.
+The defaults are the paper's GPU settings; `train/tiny_cpu.toml` shrinks them for tests.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Any, ClassVar
+
+from motionkit.errors import TrainError
+from motionkit.tomlfile import build_dataclass, read_toml
+
+SCENARIOS = ("flat", "terrain")
+JETS = ("ideal", "lstm")
+
+
+def _positive(config: Any, names: tuple[str, ...]) -> None:
+    for name in names:
+        if not getattr(config, name) > 0:
+            raise TrainError(f"'{name}' must be > 0, got {getattr(config, name)!r}")
+
+
+def _interval(config: Any, name: str, low: float = 0.0) -> None:
+    value = getattr(config, name)
+    if len(value) != 2 or not low <= value[0] <= value[1]:
+        raise TrainError(f"'{name}' should be [low, high] with {low} <= low <= high, got {value}")
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """The MJX environment: control, jets, waypoints, termination, terrain."""
+
+    scenario: str = "flat"  # "flat" or "terrain" (rough ground, stepping stones, pits)
+    control_hz: float = 60.0
+    substeps: int = 4  # physics steps per control step (timestep 1 / (control_hz * substeps))
+    episode_seconds: float = 20.0
+    action_scale: float = 0.5  # rad of joint target per unit action, around the standing posture
+    jet: str = "ideal"  # "ideal": action = thrust rate; "lstm": action = throttle (jet_model)
+    jet_model: str = ""  # model.npz written by `motionkit jet-ident fit` (jet = "lstm")
+    thrust_rate_max: float = 300.0  # N/s, ideal jet
+    initial_thrust: tuple[float, float] = (0.0, 0.0)  # N per jet at reset, uniform (ideal jet)
+    min_base_height: float = 0.4  # m above the terrain; lower ends the episode (a fall)
+    waypoint_distance: tuple[float, float] = (0.7, 2.0)  # m between consecutive waypoints
+    waypoint_radius: float = 0.3  # m: a waypoint closer than this is reached
+    air_probability: float = 0.5  # chance that a new waypoint is in the air
+    ground_height: float = 0.6  # m: base height of a waypoint on the ground (standing)
+    air_height: tuple[float, float] = (1.2, 2.0)  # m above the terrain for air waypoints
+    joint_noise: float = 0.05  # rad, uniform noise on the standing posture at reset
+    solver_iterations: int = 4  # MJX Newton iterations (cheap and good enough at 240 Hz)
+    ls_iterations: int = 6
+    terrain_size: float = 16.0  # m, side of the square terrain ("terrain" scenario)
+    terrain_seed: int = 0
+
+    @property
+    def control_dt(self) -> float:
+        return 1.0 / self.control_hz
+
+    @property
+    def max_steps(self) -> int:
+        return round(self.episode_seconds * self.control_hz)
+
+    def __post_init__(self) -> None:
+        if self.scenario not in SCENARIOS:
+            raise TrainError(f"'scenario' should be one of {SCENARIOS}, got {self.scenario!r}")
+        if self.jet not in JETS:
+            raise TrainError(f"'jet' should be one of {JETS}, got {self.jet!r}")
+        if self.jet == "lstm" and not self.jet_model:
+            raise TrainError("jet = 'lstm' needs 'jet_model', the model.npz of jet-ident fit")
+        _positive(self, ("control_hz", "substeps", "episode_seconds", "action_scale"))
+        _positive(self, ("thrust_rate_max", "waypoint_radius", "ground_height"))
+        _positive(self, ("solver_iterations", "ls_iterations", "terrain_size"))
+        _interval(self, "waypoint_distance", 0.0)
+        _interval(self, "air_height", 0.0)
+        _interval(self, "initial_thrust", 0.0)
+        if self.jet == "lstm" and self.initial_thrust != (0.0, 0.0):
+            raise TrainError("'initial_thrust' needs jet = 'ideal' (the LSTM starts at idle)")
+        if not 0 <= self.air_probability <= 1:
+            raise TrainError(f"'air_probability' must be in [0, 1], got {self.air_probability}")
+
+
+@dataclass(frozen=True)
+class RewardConfig:
+    """Task reward weights and scales (the paper's table) and the task/style mix."""
+
+    w_target: float = 0.1  # w_c: exp(-c1 |x_d - p|^2)
+    w_velocity: float = 0.7  # w_v: exp(-c2 (v_d - speed toward the target)^2)
+    w_facing: float = 0.2  # w_f: cosine between the facing and the direction to the target
+    w_thrust: float = 0.11  # w_T: -|T / T_max|^2
+    c1: float = 0.5
+    c2: float = 0.5
+    v_desired: float = 0.8  # m/s
+    w_task: float = 0.5  # w_G
+    w_style: float = 0.5  # w_S (0 when no prior is used)
+
+
+@dataclass(frozen=True)
+class PpoConfig:
+    """PPO with an adaptive learning rate (KL target); defaults are the paper's GPU settings."""
+
+    num_envs: int = 4096
+    rollout_steps: int = 24  # steps per environment per iteration
+    epochs: int = 5
+    minibatch_size: int = 32768
+    gamma: float = 0.99
+    lam: float = 0.95
+    learning_rate: float = 5e-5  # initial; adapted towards the KL target
+    kl_target: float = 0.008
+    clip: float = 0.2
+    entropy_coef: float = 0.0
+    value_coef: float = 5.0
+    max_grad_norm: float = 1.0
+    init_std: float = 1.0
+    actor_hidden: tuple[int, ...] = (512, 256, 128)
+    critic_hidden: tuple[int, ...] = (512, 256, 128)
+
+    def __post_init__(self) -> None:
+        _positive(self, ("num_envs", "rollout_steps", "epochs", "minibatch_size"))
+        _positive(self, ("learning_rate", "kl_target", "clip", "init_std"))
+        if (self.num_envs * self.rollout_steps) % self.minibatch_size:
+            raise TrainError(
+                f"num_envs x rollout_steps ({self.num_envs * self.rollout_steps}) must be a "
+                f"multiple of minibatch_size ({self.minibatch_size})"
+            )
+        for name in ("gamma", "lam"):
+            if not 0 < getattr(self, name) <= 1:
+                raise TrainError(f"'{name}' must be in (0, 1], got {getattr(self, name)}")
+
+    @property
+    def minibatches(self) -> int:
+        return self.num_envs * self.rollout_steps // self.minibatch_size
+
+
+@dataclass(frozen=True)
+class AmpConfig:
+    """The discriminator on pairs (chi_t, chi_t+1) of AMP features."""
+
+    hidden: tuple[int, ...] = (1024, 512)
+    learning_rate: float = 1e-4
+    batch_size: int = 4096  # expert and policy pairs per discriminator step
+    gradient_penalty: float = 5.0  # weight of the penalty on |grad_x D|^2 at dataset samples
+    weight_decay: float = 1e-4  # on the discriminator's output layer (logit scale)
+    buffer_size: int = 1_000_000  # policy transitions in the replay buffer
+    style_clip: float = 10.0  # upper bound of the style reward per step
+
+    def __post_init__(self) -> None:
+        _positive(self, ("learning_rate", "batch_size", "buffer_size", "style_clip"))
+        if self.gradient_penalty < 0 or self.weight_decay < 0:
+            raise TrainError("'gradient_penalty' and 'weight_decay' must be >= 0")
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """The loop: iterations, seed, logging, evaluation and checkpoints."""
+
+    iterations: int = 3000
+    seed: int = 0
+    log_every: int = 10  # iterations between printed progress lines
+    eval_every: int = 250  # iterations between evaluations (0: only at the end)
+    eval_rollouts: int = 10  # rollout chunks (of rollout_steps) per evaluation
+    checkpoint_every: int = 250
+    max_minutes: float = 0.0  # stop after this wall time (0: no limit)
+    tensorboard: bool = True  # also write TensorBoard events (needs tensorboardX)
+
+    def __post_init__(self) -> None:
+        _positive(self, ("iterations", "log_every", "eval_rollouts", "checkpoint_every"))
+        if self.eval_every < 0 or self.max_minutes < 0:
+            raise TrainError("'eval_every' and 'max_minutes' must be >= 0")
+
+
+@dataclass(frozen=True)
+class PriorConfig:
+    """One motion prior: MCAP clips (files or folders, relative to the working directory)."""
+
+    paths: tuple[str, ...] = ()
+    weight: float = 1.0  # share of the prior in the discriminator's dataset samples
+
+    def __post_init__(self) -> None:
+        if not self.paths:
+            raise TrainError("a prior needs 'paths': MCAP clips or folders of clips")
+        if not self.weight > 0:
+            raise TrainError(f"a prior's 'weight' must be > 0, got {self.weight}")
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    env: EnvConfig = EnvConfig()
+    reward: RewardConfig = RewardConfig()
+    ppo: PpoConfig = PpoConfig()
+    amp: AmpConfig = AmpConfig()
+    run: RunConfig = RunConfig()
+    priors: dict[str, PriorConfig] = field(default_factory=dict)
+
+    TABLES: ClassVar[dict[str, type]] = {
+        "env": EnvConfig,
+        "reward": RewardConfig,
+        "ppo": PpoConfig,
+        "amp": AmpConfig,
+        "run": RunConfig,
+    }
+
+    @classmethod
+    def from_toml(cls, path: Path) -> TrainConfig:
+        return cls.from_dict(read_toml(path, "train config", TrainError), str(path))
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str = "<config>") -> TrainConfig:
+        unknown = sorted(set(data) - set(cls.TABLES) - {"priors"})
+        if unknown:
+            known = sorted([*cls.TABLES, "priors"])
+            raise TrainError(f"{source}: unknown tables {unknown}; known: {known}")
+        values: dict[str, Any] = {}
+        for name, kind in cls.TABLES.items():
+            table = data.get(name, {})
+            if not isinstance(table, dict):
+                raise TrainError(f"{source}: '{name}' should be a table [{name}]")
+            values[name] = build_dataclass(kind, table, f"{source}: [{name}]", TrainError)
+        priors = data.get("priors", {})
+        if not isinstance(priors, dict) or not all(isinstance(v, dict) for v in priors.values()):
+            raise TrainError(f"{source}: priors should be tables [priors.NAME]")
+        values["priors"] = {
+            name: _prior(table, f"{source}: [priors.{name}]") for name, table in priors.items()
+        }
+        return cls(**values)
+
+    def select_priors(self, names: list[str]) -> TrainConfig:
+        """The same config with only the named priors (`--priors`)."""
+        missing = [n for n in names if n not in self.priors]
+        if missing:
+            raise TrainError(
+                f"--priors names {missing}, the config has [priors.*] tables for "
+                f"{sorted(self.priors) or 'none'}"
+            )
+        return replace(self, priors={n: self.priors[n] for n in names})
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def to_toml(self) -> str:
+        """The resolved config as TOML (what `from_toml` reads back)."""
+        lines = []
+        for name, table in self.to_dict().items():
+            if name == "priors":
+                for prior, values in table.items():
+                    lines.append(f"[priors.{prior}]")
+                    lines += [f"{k} = {_toml_value(v)}" for k, v in values.items()]
+                    lines.append("")
+                continue
+            lines.append(f"[{name}]")
+            lines += [f"{key} = {_toml_value(value)}" for key, value in table.items()]
+            lines.append("")
+        return "\n".join(lines)
+
+
+def _prior(table: dict[str, Any], where: str) -> PriorConfig:
+    if "paths" not in table:
+        raise TrainError(f"{where}: missing 'paths' (MCAP clips or folders)")
+    table = dict(table)
+    if isinstance(table["paths"], str):
+        table["paths"] = [table["paths"]]
+    try:
+        return PriorConfig(
+            paths=tuple(str(p) for p in table.pop("paths")),
+            **{k: float(v) if k == "weight" else v for k, v in table.items()},
+        )
+    except TypeError as exc:
+        raise TrainError(f"{where}: {exc}") from exc
+    except TrainError as exc:
+        raise TrainError(f"{where}: {exc}") from exc
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    return repr(value)

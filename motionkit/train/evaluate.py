@@ -1,0 +1,118 @@
+"""Evaluation: deterministic rollouts of the policy from fresh episodes, their figures, and the
+first episode of environment 0 as a motion clip (MCAP) for the viewer."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from motionkit.dataset import Metadata, Source, Trajectory, write
+from motionkit.robot import Robot
+from motionkit.train.spatial import quat_to_matrix
+from motionkit.train.train import Learner, Trainer
+
+FIELDS = ("done", "truncated", "hit", "airborne", "feet_down", "thrust", "task_reward")
+FIELDS += ("qpos", "qvel", "target")
+
+
+def evaluate(
+    trainer: Trainer, learner: Learner, key: jax.Array, chunks: int
+) -> tuple[dict[str, float], dict[str, np.ndarray]]:
+    """`chunks` rollouts of rollout_steps without action noise from freshly reset environments.
+    Figures per episode count the episodes still running at the end as (partial) episodes."""
+    k_reset, k_run = jax.random.split(key)
+    state = trainer.reset(jax.random.split(k_reset, trainer.config.ppo.num_envs))
+    parts: dict[str, list[np.ndarray]] = {name: [] for name in FIELDS}
+    for k in jax.random.split(k_run, chunks):
+        state, batch = trainer.rollout(learner, state, k, jnp.array(0.0))
+        for name in FIELDS:
+            parts[name].append(np.asarray(getattr(batch, name)))
+    arrays = {name: np.concatenate(value) for name, value in parts.items()}
+    done, truncated = arrays["done"], arrays["truncated"]
+    steps, envs = done.shape
+    ended = int(done.sum())
+    episodes = ended + envs
+    control_hz = trainer.config.env.control_hz
+    lengths = _episode_lengths(done)
+    metrics = {
+        "eval_waypoints_per_episode": float(arrays["hit"].sum() / episodes),
+        "eval_airborne_share": float(arrays["airborne"].mean()),
+        "eval_ground_share": float(1.0 - arrays["airborne"].mean()),
+        "eval_thrust_usage": float((arrays["thrust"] / np.asarray(trainer.env.t_max)).mean()),
+        "eval_falls_per_episode": float((done & ~truncated).sum() / episodes),
+        "eval_episode_seconds": float(np.mean(lengths) / control_hz)
+        if lengths
+        else steps / control_hz,
+        "eval_task_reward": float(arrays["task_reward"].mean()),
+        "eval_episodes": float(episodes),
+    }
+    return metrics, arrays
+
+
+def _episode_lengths(done: np.ndarray) -> list[int]:
+    """Lengths of the episodes that ended, for every environment (time-major done)."""
+    lengths = []
+    for column in done.T:
+        ends = np.flatnonzero(column)
+        lengths += np.diff(np.concatenate([[-1], ends])).tolist()
+    return lengths
+
+
+def first_episode(
+    arrays: dict[str, np.ndarray], robot: Robot, control_hz: float, config: dict[str, Any]
+) -> Trajectory | None:
+    """The first episode of environment 0 as a clip (None if it lasted less than 2 steps);
+    the waypoints it pursued go into the metadata config as [time, x, y, z] rows."""
+    done = arrays["done"][:, 0]
+    end = int(np.argmax(done)) if done.any() else len(done)
+    if end < 2:
+        return None
+    qpos, qvel = arrays["qpos"][:end, 0], arrays["qvel"][:end, 0]
+    time = np.arange(1, end + 1) / control_hz
+    rotation = np.asarray(jax.vmap(quat_to_matrix)(jnp.asarray(qpos[:, 3:7])))
+    angular = np.einsum("tij,tj->ti", rotation, qvel[:, 3:6])
+    targets = arrays["target"][:end, 0]
+    change = np.concatenate([[True], np.any(np.diff(targets, axis=0) != 0, axis=1)])
+    route = [
+        [round(float(t - 1 / control_hz), 4), *map(float, p)]
+        for t, p in zip(time[change], targets[change], strict=True)
+    ]
+    spec = robot.spec
+    return Trajectory(
+        time=time,
+        base_position=qpos[:, :3],
+        base_orientation=qpos[:, 3:7] / np.linalg.norm(qpos[:, 3:7], axis=1, keepdims=True),
+        joint_names=robot.joint_names,
+        joint_positions=qpos[:, 7:],
+        joint_velocities=qvel[:, 6:],
+        base_linear_velocity=qvel[:, :3],
+        base_angular_velocity=angular,
+        thrust=arrays["thrust"][:end, 0],
+        contacts=arrays["feet_down"][:end, 0],
+        jet_names=tuple(jet.name for jet in spec.jets),
+        foot_names=tuple(foot.side for foot in spec.feet),
+        metadata=Metadata(
+            robot=robot.name,
+            robot_hash=robot.model_hash,
+            kind="rollout",
+            generator="rollout",
+            source=Source(clip=str(config.get("clip", "evaluation"))),
+            config={**config, "waypoints": route},
+        ),
+    )
+
+
+def save_rollout(
+    path: Path,
+    arrays: dict[str, np.ndarray],
+    robot: Robot,
+    control_hz: float,
+    config: dict[str, Any],
+) -> Path | None:
+    """Write the first episode of environment 0 as MCAP; None when it was too short."""
+    trajectory = first_episode(arrays, robot, control_hz, config)
+    return None if trajectory is None else write(path, trajectory, robot)

@@ -1,0 +1,119 @@
+"""PPO pieces as small pure functions: the actor-critic, GAE, the clipped losses and the
+adaptive learning rate that keeps the policy's KL step near a target."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import flax.linen as nn
+import jax
+import jax.numpy as jnp
+
+LOG_2PI = jnp.log(2 * jnp.pi)
+
+
+class ActorCritic(nn.Module):
+    """A Gaussian policy (MLP mean, state-independent log std) and a value MLP (ELU)."""
+
+    actions: int
+    actor_hidden: Sequence[int]
+    critic_hidden: Sequence[int]
+    init_std: float = 1.0
+
+    @nn.compact
+    def __call__(self, obs: jax.Array) -> tuple[jax.Array, jax.Array, jax.Array]:
+        x = obs
+        for width in self.actor_hidden:
+            x = nn.elu(nn.Dense(width)(x))
+        mean = nn.Dense(self.actions, kernel_init=nn.initializers.normal(0.01))(x)
+        log_std = self.param(
+            "log_std", nn.initializers.constant(jnp.log(self.init_std)), (self.actions,)
+        )
+        v = obs
+        for width in self.critic_hidden:
+            v = nn.elu(nn.Dense(width)(v))
+        value = nn.Dense(1)(v)[..., 0]
+        return mean, jnp.broadcast_to(log_std, mean.shape), value
+
+
+def log_prob(mean: jax.Array, log_std: jax.Array, action: jax.Array) -> jax.Array:
+    z = (action - mean) / jnp.exp(log_std)
+    return jnp.sum(-0.5 * z**2 - log_std - 0.5 * LOG_2PI, axis=-1)
+
+
+def entropy(log_std: jax.Array) -> jax.Array:
+    return jnp.sum(log_std + 0.5 * (1.0 + LOG_2PI), axis=-1)
+
+
+def gaussian_kl(
+    mean_old: jax.Array, log_std_old: jax.Array, mean: jax.Array, log_std: jax.Array
+) -> jax.Array:
+    """KL(old || new) of diagonal Gaussians, summed over the action dimensions."""
+    var_old, var = jnp.exp(2 * log_std_old), jnp.exp(2 * log_std)
+    return jnp.sum(
+        log_std - log_std_old + (var_old + (mean_old - mean) ** 2) / (2 * var) - 0.5, axis=-1
+    )
+
+
+def gae(
+    rewards: jax.Array,
+    values: jax.Array,
+    dones: jax.Array,
+    last_value: jax.Array,
+    gamma: float,
+    lam: float,
+) -> tuple[jax.Array, jax.Array]:
+    """Advantages and returns over time-major (T, ...) arrays. `dones[t]` = the episode ended
+    at step t (the next value belongs to a new episode; time-limit bootstrapping is folded into
+    the rewards by the caller); `last_value` is V of the state after the last step."""
+    next_values = jnp.concatenate([values[1:], last_value[None]], axis=0)
+
+    def backward(carry: jax.Array, xs: tuple[jax.Array, ...]) -> tuple[jax.Array, jax.Array]:
+        reward, value, next_value, done = xs
+        keep = 1.0 - done
+        delta = reward + gamma * next_value * keep - value
+        advantage = delta + gamma * lam * keep * carry
+        return advantage, advantage
+
+    _, advantages = jax.lax.scan(
+        backward,
+        jnp.zeros_like(last_value),
+        (rewards, values, next_values, dones.astype(rewards.dtype)),
+        reverse=True,
+    )
+    return advantages, advantages + values
+
+
+def ppo_loss(
+    mean: jax.Array,
+    log_std: jax.Array,
+    value: jax.Array,
+    batch: dict[str, jax.Array],
+    clip: float,
+    value_coef: float,
+    entropy_coef: float,
+) -> tuple[jax.Array, dict[str, jax.Array]]:
+    """Clipped surrogate + value_coef * clipped value loss - entropy_coef * entropy; the
+    advantages are normalised over the minibatch."""
+    advantages = batch["advantages"]
+    advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8)
+    ratio = jnp.exp(log_prob(mean, log_std, batch["actions"]) - batch["log_probs"])
+    surrogate = -jnp.minimum(
+        ratio * advantages, jnp.clip(ratio, 1.0 - clip, 1.0 + clip) * advantages
+    ).mean()
+    clipped_value = batch["values"] + jnp.clip(value - batch["values"], -clip, clip)
+    value_loss = jnp.maximum(
+        (value - batch["returns"]) ** 2, (clipped_value - batch["returns"]) ** 2
+    ).mean()
+    ent = entropy(log_std).mean()
+    loss = surrogate + value_coef * value_loss - entropy_coef * ent
+    return loss, {"surrogate": surrogate, "value_loss": value_loss, "entropy": ent}
+
+
+def adapt_learning_rate(
+    lr: jax.Array, kl: jax.Array, target: float, low: float = 1e-5, high: float = 1e-2
+) -> jax.Array:
+    """Divide by 1.5 when the KL exceeds twice the target, multiply by 1.5 below half of it."""
+    lr = jnp.where(kl > 2.0 * target, lr / 1.5, lr)
+    lr = jnp.where((kl < 0.5 * target) & (kl > 0.0), lr * 1.5, lr)
+    return jnp.clip(lr, low, high)

@@ -1,0 +1,165 @@
+"""A training run in a folder: config, metrics logs, checkpoints, evaluations and rollouts.
+
+OUT/config.toml             the resolved config (and the priors used)
+OUT/train.csv, eval.csv     metrics per iteration / per evaluation (+ OUT/tensorboard/)
+OUT/checkpoint.msgpack      the latest learner (resume with resume=True)
+OUT/rollouts/iter_N.mcap    the first evaluation episode of environment 0, for the viewer
+OUT/summary.json            priors, last training and evaluation figures, timings
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import jax
+import numpy as np
+
+from motionkit.errors import TrainError
+from motionkit.outputs import write_text_atomic
+from motionkit.robot import Robot
+from motionkit.train.checkpoint import NAME, load_checkpoint, save_checkpoint
+from motionkit.train.config import TrainConfig
+from motionkit.train.env import Env
+from motionkit.train.evaluate import evaluate, save_rollout
+from motionkit.train.metrics_log import MetricsLog
+from motionkit.train.priors import load_priors
+from motionkit.train.train import Learner, Trainer
+
+
+def make_env(config: TrainConfig, robot: Robot) -> Env:
+    jet_model = None
+    if config.env.jet == "lstm":
+        from motionkit.errors import JetIdentError
+        from motionkit.jet_ident.export import load_model
+
+        try:
+            jet_model, _ = load_model(Path(config.env.jet_model))
+        except JetIdentError as exc:
+            raise TrainError(f"[env] jet_model: {exc}") from exc
+    return Env(robot, config.env, config.reward, jet_model)
+
+
+def train(
+    config: TrainConfig,
+    out: Path,
+    robot: Robot,
+    *,
+    resume: bool = False,
+    progress: Callable[[str], None] = print,
+    stop: Callable[[dict[str, float]], bool] | None = None,
+) -> dict[str, Any]:
+    """Train (or resume) in `out`; returns the summary also written to OUT/summary.json.
+    `stop(evaluation)` ends the run early after an evaluation that satisfies it."""
+    out = Path(out)
+    checkpoint = out / NAME
+    if resume and not checkpoint.exists():
+        raise TrainError(f"{out}: nothing to resume (no {NAME})")
+    if not resume and checkpoint.exists():
+        raise TrainError(f"{out} holds a run already: pass --resume or another --out")
+    prior, prior_summary = load_priors(config.priors, robot, config.env.control_hz)
+    env = make_env(config, robot)
+    if prior is not None and prior.current.shape[1] != env.chi_size:
+        raise TrainError(
+            f"prior features have {prior.current.shape[1]} columns, the environment {env.chi_size}"
+        )
+    out.mkdir(parents=True, exist_ok=True)
+    write_text_atomic(out / "config.toml", config.to_toml())
+    trainer = Trainer(config, env, prior)
+    run = config.run
+    learner, carry = trainer.init(run.seed)
+    if resume:
+        learner = load_checkpoint(checkpoint, learner)
+        key = jax.random.fold_in(jax.random.key(run.seed), int(learner.iteration))
+        carry = trainer.new_carry(*jax.random.split(key))
+        progress(f"resumed {out} at iteration {int(learner.iteration)}")
+    log = MetricsLog(out, run.tensorboard)
+    if log.note:
+        progress(log.note)
+    progress(
+        f"{config.ppo.num_envs} envs x {config.ppo.rollout_steps} steps per iteration, "
+        f"scenario {config.env.scenario}, jets {config.env.jet}, priors "
+        f"{', '.join(config.priors) or 'none'}; obs {env.obs_size}, actions {env.action_size}"
+    )
+    start = time.perf_counter()
+    summary: dict[str, Any] = {"priors": prior_summary}
+    last: dict[str, float] = {}
+    evaluation: dict[str, float] = {}
+    steps_per_iteration = config.ppo.num_envs * config.ppo.rollout_steps
+    while int(learner.iteration) < run.iterations:
+        if run.max_minutes and time.perf_counter() - start > 60 * run.max_minutes:
+            progress(f"stopped after {run.max_minutes} minutes")
+            break
+        tick = time.perf_counter()
+        learner, carry, metrics = trainer.iteration(learner, carry)
+        iteration = int(learner.iteration)
+        last = {k: float(v) for k, v in metrics.items()}
+        seconds = time.perf_counter() - tick
+        last |= {
+            "env_steps": float(learner.env_steps),
+            "env_steps_per_second": steps_per_iteration / seconds,
+            "wall_seconds": time.perf_counter() - start,
+        }
+        log.write("train", iteration, last)
+        if iteration % run.log_every == 0 or iteration == 1:
+            progress(_line(iteration, last))
+        final = iteration >= run.iterations
+        evaluated = (run.eval_every and iteration % run.eval_every == 0) or final
+        if evaluated:
+            evaluation = run_evaluation(trainer, learner, robot, out, iteration)
+            log.write("eval", iteration, evaluation)
+            progress(
+                f"eval {iteration}: " + ", ".join(f"{k[5:]} {v:.3g}" for k, v in evaluation.items())
+            )
+        if iteration % run.checkpoint_every == 0 or final:
+            save_checkpoint(checkpoint, learner)
+        if evaluated and stop is not None and stop(evaluation):
+            progress(f"stop criterion met at iteration {iteration}")
+            break
+    save_checkpoint(checkpoint, learner)
+    log.close()
+    summary |= {
+        "iterations": int(learner.iteration),
+        "env_steps": float(learner.env_steps),
+        "seconds": round(time.perf_counter() - start, 2),
+        "train": last,
+        "eval": evaluation,
+    }
+    write_text_atomic(out / "summary.json", json.dumps(summary, indent=2, default=_json) + "\n")
+    return summary
+
+
+def run_evaluation(
+    trainer: Trainer, learner: Learner, robot: Robot, out: Path, iteration: int
+) -> dict[str, float]:
+    config = trainer.config
+    key = jax.random.fold_in(jax.random.key(config.run.seed + 1), iteration)
+    metrics, arrays = evaluate(trainer, learner, key, config.run.eval_rollouts)
+    meta = {"iteration": iteration, "scenario": config.env.scenario, "clip": f"iter_{iteration}"}
+    save_rollout(
+        out / "rollouts" / f"iter_{iteration}.mcap",
+        arrays,
+        robot,
+        config.env.control_hz,
+        meta | {"priors": sorted(config.priors)},
+    )
+    return metrics
+
+
+def _line(iteration: int, m: dict[str, float]) -> str:
+    return (
+        f"iter {iteration}: reward {m['reward']:.3f} (task {m['task_reward']:.3f}, style "
+        f"{m['style_reward']:.3f}), episode {m['episode_seconds']:.2f} s, waypoints "
+        f"{m['waypoints_per_episode']:.2f}, airborne {m['airborne_share']:.2f}, lr "
+        f"{m['learning_rate']:.2e}, kl {m['kl']:.4f}, "
+        f"{m['env_steps_per_second']:.0f} env-steps/s"
+    )
+
+
+def _json(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")

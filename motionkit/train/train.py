@@ -1,0 +1,307 @@
+"""The learner: one jitted rollout (lax.scan over the vmapped environment) and one jitted
+update (style rewards, GAE, PPO epochs over minibatches with adaptive learning rate, and
+discriminator steps on prior vs replayed policy transitions).
+
+    trainer = Trainer(config, env, prior)        # prior: PriorData or None (no style reward)
+    learner, carry = trainer.init(seed)
+    learner, carry, metrics = trainer.iteration(learner, carry)
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import optax
+from flax import struct
+
+from motionkit.train.amp import Discriminator, PriorData, ReplayBuffer, discriminator_loss
+from motionkit.train.config import TrainConfig
+from motionkit.train.env import Env, EnvState
+from motionkit.train.normalize import RunningNorm
+from motionkit.train.ppo import (
+    ActorCritic,
+    adapt_learning_rate,
+    gae,
+    gaussian_kl,
+    log_prob,
+    ppo_loss,
+)
+from motionkit.train.rewards import style_reward, total_reward
+
+
+@struct.dataclass
+class Learner:
+    """Everything that is learned (the checkpoint)."""
+
+    policy: Any
+    policy_opt: Any
+    learning_rate: jax.Array
+    disc: Any
+    disc_opt: Any
+    obs_norm: RunningNorm
+    amp_norm: RunningNorm
+    iteration: jax.Array
+    env_steps: jax.Array
+
+
+@struct.dataclass
+class Carry:
+    """What a run carries between iterations besides the learner (not checkpointed)."""
+
+    env: EnvState
+    buffer: ReplayBuffer
+    key: jax.Array
+
+
+@struct.dataclass
+class Rollout:
+    """Time-major (T, N, ...) arrays of one rollout; `last_obs` (N, obs) after it."""
+
+    obs: jax.Array
+    actions: jax.Array
+    means: jax.Array
+    log_stds: jax.Array
+    log_probs: jax.Array
+    values: jax.Array
+    final_values: jax.Array
+    task_reward: jax.Array
+    terms: dict[str, jax.Array]
+    done: jax.Array
+    truncated: jax.Array
+    chi: jax.Array
+    chi_next: jax.Array
+    hit: jax.Array
+    airborne: jax.Array
+    feet_down: jax.Array
+    episode_steps: jax.Array
+    episode_reached: jax.Array
+    qpos: jax.Array
+    qvel: jax.Array
+    thrust: jax.Array
+    target: jax.Array  # the waypoint pursued during the step
+    last_obs: jax.Array
+
+
+class Trainer:
+    def __init__(self, config: TrainConfig, env: Env, prior: PriorData | None) -> None:
+        self.config, self.env, self.prior = config, env, prior
+        ppo = config.ppo
+        self.net = ActorCritic(env.action_size, ppo.actor_hidden, ppo.critic_hidden, ppo.init_std)
+        self.disc = Discriminator(config.amp.hidden)
+        self.policy_tx = optax.chain(
+            optax.clip_by_global_norm(ppo.max_grad_norm), optax.scale_by_adam()
+        )
+        self.disc_tx = optax.adam(config.amp.learning_rate)
+        self.use_style = prior is not None and config.reward.w_style > 0
+        self.reset = jax.jit(jax.vmap(env.reset))
+        self.rollout = jax.jit(self._rollout)
+        self.update = jax.jit(self._update)
+
+    # -- setup ----------------------------------------------------------------------------------
+    def init(self, seed: int) -> tuple[Learner, Carry]:
+        key = jax.random.key(seed)
+        k_policy, k_disc, k_env, k_run = jax.random.split(key, 4)
+        env, ppo = self.env, self.config.ppo
+        policy = self.net.init(k_policy, jnp.zeros((1, env.obs_size)))
+        chi = jnp.zeros((1, env.chi_size))
+        disc = self.disc.init(k_disc, chi, chi)
+        learner = Learner(
+            policy=policy,
+            policy_opt=self.policy_tx.init(policy),
+            learning_rate=jnp.array(ppo.learning_rate),
+            disc=disc,
+            disc_opt=self.disc_tx.init(disc),
+            obs_norm=RunningNorm.create(env.obs_size),
+            amp_norm=RunningNorm.create(env.chi_size),
+            iteration=jnp.array(0),
+            env_steps=jnp.array(0.0),
+        )
+        return learner, self.new_carry(k_env, k_run)
+
+    def new_carry(self, k_env: jax.Array, k_run: jax.Array) -> Carry:
+        n = self.config.ppo.num_envs
+        buffer = ReplayBuffer.create(self.config.amp.buffer_size, self.env.chi_size)
+        return Carry(self.reset(jax.random.split(k_env, n)), buffer, k_run)
+
+    # -- rollout --------------------------------------------------------------------------------
+    def _rollout(
+        self, learner: Learner, state: EnvState, key: jax.Array, noise: jax.Array
+    ) -> tuple[EnvState, Rollout]:
+        """rollout_steps steps of every environment; actions mean + noise * std * N(0, 1)
+        (noise 1 to learn, 0 to evaluate)."""
+        step = jax.vmap(self.env.step)
+
+        def one(state: EnvState, k: jax.Array) -> tuple[EnvState, dict[str, Any]]:
+            obs, chi, target = state.obs, state.chi, state.target
+            mean, log_std, value = self.net.apply(learner.policy, learner.obs_norm(obs))
+            action = mean + noise * jnp.exp(log_std) * jax.random.normal(k, mean.shape)
+            log_p = log_prob(mean, log_std, action)
+            state, info = step(state, action)
+            _, _, final_value = self.net.apply(learner.policy, learner.obs_norm(info.final_obs))
+            record = {
+                "obs": obs,
+                "actions": action,
+                "means": mean,
+                "log_stds": log_std,
+                "log_probs": log_p,
+                "values": value,
+                "final_values": final_value,
+                "task_reward": info.task_reward,
+                "terms": info.terms,
+                "done": info.done,
+                "truncated": info.truncated,
+                "chi": chi,
+                "chi_next": info.chi_next,
+                "hit": info.hit,
+                "airborne": info.airborne,
+                "feet_down": info.feet_down,
+                "episode_steps": info.episode_steps,
+                "episode_reached": info.episode_reached,
+                "qpos": state.data.qpos,
+                "qvel": state.data.qvel,
+                "thrust": state.thrust,
+                "target": target,
+            }
+            return state, record
+
+        keys = jax.random.split(key, self.config.ppo.rollout_steps)
+        state, records = jax.lax.scan(one, state, keys)
+        return state, Rollout(**records, last_obs=state.obs)
+
+    # -- update ---------------------------------------------------------------------------------
+    def _update(
+        self,
+        learner: Learner,
+        buffer: ReplayBuffer,
+        batch: Rollout,
+        prior: PriorData | None,
+        key: jax.Array,
+    ) -> tuple[Learner, ReplayBuffer, dict[str, jax.Array]]:
+        config, ppo, amp = self.config, self.config.ppo, self.config.amp
+        k_norm, k_epochs = jax.random.split(key)
+        amp_norm = learner.amp_norm
+        if self.use_style:
+            expert_sample = prior.sample(k_norm, amp.batch_size)
+            policy_chi = batch.chi_next.reshape(-1, amp_norm.mean.size)
+            amp_norm = amp_norm.update(jnp.concatenate([policy_chi, *expert_sample]))
+            logits = self.disc.apply(learner.disc, amp_norm(batch.chi), amp_norm(batch.chi_next))
+            style = style_reward(logits, amp.style_clip)
+        else:
+            style = jnp.zeros_like(batch.task_reward)
+        w_style = config.reward.w_style if self.use_style else 0.0
+        reward = total_reward(batch.task_reward, style, config.reward.w_task, w_style)
+        reward = reward + ppo.gamma * batch.final_values * batch.truncated
+        _, _, last_value = self.net.apply(learner.policy, learner.obs_norm(batch.last_obs))
+        advantages, returns = gae(reward, batch.values, batch.done, last_value, ppo.gamma, ppo.lam)
+
+        flat = lambda x: x.reshape(-1, *x.shape[2:])  # noqa: E731
+        data = {
+            "obs": flat(batch.obs),
+            "actions": flat(batch.actions),
+            "means": flat(batch.means),
+            "log_stds": flat(batch.log_stds),
+            "log_probs": flat(batch.log_probs),
+            "values": flat(batch.values),
+            "advantages": flat(advantages),
+            "returns": flat(returns),
+        }
+        if self.use_style:
+            pairs = flat(batch.chi), flat(batch.chi_next)
+            keep = min(buffer.capacity, pairs[0].shape[0])
+            buffer = buffer.add(pairs[0][-keep:], pairs[1][-keep:])
+        size = data["obs"].shape[0]
+
+        def minibatch(carry: tuple, index: jax.Array) -> tuple[tuple, dict[str, jax.Array]]:
+            policy, opt, lr, disc, disc_opt, k = carry
+            mb = jax.tree.map(lambda x: x[index], data)
+
+            def loss_fn(params: Any) -> tuple[jax.Array, dict[str, jax.Array]]:
+                mean, log_std, value = self.net.apply(params, learner.obs_norm(mb["obs"]))
+                loss, parts = ppo_loss(
+                    mean, log_std, value, mb, ppo.clip, ppo.value_coef, ppo.entropy_coef
+                )
+                kl = gaussian_kl(mb["means"], mb["log_stds"], mean, log_std).mean()
+                return loss, {**parts, "kl": kl}
+
+            grads, parts = jax.grad(loss_fn, has_aux=True)(policy)
+            lr = adapt_learning_rate(lr, jax.lax.stop_gradient(parts["kl"]), ppo.kl_target)
+            updates, opt = self.policy_tx.update(grads, opt, policy)
+            policy = jax.tree.map(lambda p, u: p - lr * u, policy, updates)
+            if self.use_style:
+                k, k_expert, k_policy = jax.random.split(k, 3)
+                expert = tuple(map(amp_norm, prior.sample(k_expert, amp.batch_size)))
+                replay = tuple(map(amp_norm, buffer.sample(k_policy, amp.batch_size)))
+                disc_grads, disc_parts = jax.grad(discriminator_loss, has_aux=True)(
+                    disc,
+                    self.disc.apply,
+                    expert,
+                    replay,
+                    amp.gradient_penalty,
+                    amp.weight_decay,
+                )
+                disc_updates, disc_opt = self.disc_tx.update(disc_grads, disc_opt, disc)
+                disc = optax.apply_updates(disc, disc_updates)
+                parts = {**parts, **disc_parts}
+            return (policy, opt, lr, disc, disc_opt, k), parts
+
+        def epoch(carry: tuple, k: jax.Array) -> tuple[tuple, dict[str, jax.Array]]:
+            order = jax.random.permutation(k, size).reshape(ppo.minibatches, ppo.minibatch_size)
+            return jax.lax.scan(minibatch, carry, order)
+
+        start = (
+            learner.policy,
+            learner.policy_opt,
+            learner.learning_rate,
+            learner.disc,
+            learner.disc_opt,
+            k_epochs,
+        )
+        (policy, opt, lr, disc, disc_opt, _), parts = jax.lax.scan(
+            epoch, start, jax.random.split(k_epochs, ppo.epochs)
+        )
+        learner = Learner(
+            policy=policy,
+            policy_opt=opt,
+            learning_rate=lr,
+            disc=disc,
+            disc_opt=disc_opt,
+            obs_norm=learner.obs_norm.update(batch.obs),
+            amp_norm=amp_norm,
+            iteration=learner.iteration + 1,
+            env_steps=learner.env_steps + batch.done.size,
+        )
+        metrics = {name: value.mean() for name, value in parts.items()}
+        # the discriminator before this iteration's steps (at iteration 1: the initial one)
+        metrics |= {f"{k}_start": v[0, 0] for k, v in parts.items() if k.startswith("disc_")}
+        metrics |= rollout_metrics(batch, self.env.t_max, self.env.config.control_hz)
+        metrics |= {"style_reward": style.mean(), "reward": reward.mean(), "learning_rate": lr}
+        return learner, buffer, metrics
+
+    def iteration(self, learner: Learner, carry: Carry) -> tuple[Learner, Carry, dict[str, float]]:
+        key, k_rollout, k_update = jax.random.split(carry.key, 3)
+        env_state, batch = self.rollout(learner, carry.env, k_rollout, jnp.array(1.0))
+        learner, buffer, metrics = self.update(learner, carry.buffer, batch, self.prior, k_update)
+        return learner, Carry(env_state, buffer, key), metrics
+
+
+def rollout_metrics(batch: Rollout, t_max: jax.Array, control_hz: float) -> dict[str, jax.Array]:
+    """Per-step means and per-episode figures of a rollout (episodes that ended in it; NaN
+    when none did)."""
+    ended = batch.done.sum()
+
+    def per_episode(x: jax.Array) -> jax.Array:
+        total = (x * batch.done).sum() / jnp.maximum(ended, 1)
+        return jnp.where(ended > 0, total, jnp.nan)
+
+    out = {f"reward_{name}": value.mean() for name, value in batch.terms.items()}
+    return out | {
+        "task_reward": batch.task_reward.mean(),
+        "airborne_share": batch.airborne.mean(),
+        "thrust_usage": (batch.thrust / t_max).mean(),
+        "episodes": ended,
+        "episode_seconds": per_episode(batch.episode_steps) / control_hz,
+        "waypoints_per_episode": per_episode(batch.episode_reached),
+        "falls": (batch.done & ~batch.truncated).sum(),
+    }

@@ -1,0 +1,70 @@
+"""Shared, expensive things of the trainer tests: the tiny config, the environment and its
+jitted batch reset/step (MJX compiles for tens of seconds on a CPU), synthetic priors, and a
+persistent XLA compile cache so that a second trainer of the same config loads its programs."""
+
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+
+jax = pytest.importorskip("jax")
+pytest.importorskip("mujoco.mjx")
+
+RECIPES = Path(__file__).resolve().parents[2] / "train"
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _compile_cache(tmp_path_factory: pytest.TempPathFactory) -> None:
+    jax.config.update("jax_compilation_cache_dir", str(tmp_path_factory.mktemp("xla")))
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
+
+
+@pytest.fixture(scope="session")
+def robot():
+    from motionkit.robot import ironcub
+
+    return ironcub()
+
+
+@pytest.fixture(scope="session")
+def tiny_config():
+    from motionkit.train.config import TrainConfig
+
+    return TrainConfig.from_toml(RECIPES / "tiny_cpu.toml")
+
+
+@pytest.fixture(scope="session")
+def env(robot, tiny_config):
+    from motionkit.train.env import Env
+
+    return Env(robot, tiny_config.env, tiny_config.reward)
+
+
+@pytest.fixture(scope="session")
+def batch_fns(env):
+    """Jitted vmapped (reset, step) of the tiny environment."""
+    return jax.jit(jax.vmap(env.reset)), jax.jit(jax.vmap(env.step))
+
+
+@pytest.fixture(scope="session")
+def prior_files(robot, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """Two synthetic priors: a walk (no thrust) and a 'flight' (110 N per jet)."""
+    from motionkit.dataset import write
+    from motionkit.dataset.synthetic import synthetic_trajectory
+
+    folder = tmp_path_factory.mktemp("priors")
+    walk = synthetic_trajectory(robot, 3.0, 60.0, seed=1)
+    flight = synthetic_trajectory(robot, 3.0, 60.0, thrust=110.0, seed=2, kind="flight")
+    (folder / "walk").mkdir()
+    return {
+        "walk": write(folder / "walk" / "walk.mcap", walk, robot),
+        "flight": write(folder / "flight.mcap", flight, robot),
+    }
+
+
+@pytest.fixture(scope="session")
+def config_with_priors(tiny_config, prior_files):
+    from motionkit.train.config import PriorConfig
+
+    priors = {name: PriorConfig((str(path),)) for name, path in prior_files.items()}
+    return replace(tiny_config, priors=priors)

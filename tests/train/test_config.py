@@ -1,0 +1,68 @@
+"""Train configs from TOML: the recipes load, defaults are the paper's, bad input is refused
+with the file, table and key named."""
+
+from pathlib import Path
+
+import pytest
+
+from motionkit.errors import TrainError
+from motionkit.train.command import parse_priors
+from motionkit.train.config import TrainConfig
+
+RECIPES = Path(__file__).resolve().parents[2] / "train"
+
+
+def test_paper_recipe_has_the_paper_settings() -> None:
+    config = TrainConfig.from_toml(RECIPES / "paper_gpu.toml")
+    ppo = config.ppo
+    assert (ppo.gamma, ppo.learning_rate, ppo.kl_target, ppo.lam) == (0.99, 5e-5, 0.008, 0.95)
+    assert (ppo.entropy_coef, ppo.clip, ppo.minibatch_size, ppo.value_coef) == (0, 0.2, 32768, 5)
+    assert ppo.num_envs == 4096 and ppo.minibatches == 3
+    assert sorted(config.priors) == ["flight", "walk"]
+    assert config.env.control_hz == 60.0 and config.env.max_steps == 1200
+
+
+def test_round_trip_through_toml(tmp_path: Path) -> None:
+    config = TrainConfig.from_toml(RECIPES / "paper_gpu.toml")
+    path = tmp_path / "resolved.toml"
+    path.write_text(config.to_toml())
+    assert TrainConfig.from_toml(path) == config
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("[ppo]\nnum_envs = 10\nminibatch_size = 7\n", "multiple of minibatch_size"),
+        ("[env]\nscenario = 'moon'\n", "scenario"),
+        ("[env]\njet = 'lstm'\n", "jet_model"),
+        ("[ppo]\ngamma = 'high'\n", "'gamma' should be float"),
+        ("[reward]\nw_fly = 1.0\n", "unknown keys ['w_fly']"),
+        ("[trainer]\n", "unknown tables ['trainer']"),
+        ("[priors.walk]\nweight = 1.0\n", "[priors.walk]: missing 'paths'"),
+        ("[priors.walk]\npaths = ['x']\nweight = -1.0\n", "weight"),
+        ("[env]\nwaypoint_distance = [2.0, 0.7]\n", "waypoint_distance"),
+        ("[run]\niterations = 0\n", "iterations"),
+    ],
+)
+def test_bad_configs_are_refused(tmp_path: Path, text: str, message: str) -> None:
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(TrainError, match=None) as error:
+        TrainConfig.from_toml(path)
+    assert message in str(error.value)
+
+
+def test_missing_file() -> None:
+    with pytest.raises(TrainError, match="cannot read"):
+        TrainConfig.from_toml(Path("/nonexistent/train.toml"))
+
+
+def test_prior_selection() -> None:
+    config = TrainConfig.from_toml(RECIPES / "paper_gpu.toml")
+    assert parse_priors(None, ["walk", "flight"]) == ["walk", "flight"]
+    assert parse_priors("none", ["walk"]) == []
+    assert list(config.select_priors(parse_priors("flight", [])).priors) == ["flight"]
+    with pytest.raises(TrainError, match="swim"):
+        config.select_priors(["swim"])
+    with pytest.raises(TrainError, match="expected"):
+        parse_priors("walk,none", ["walk"])

@@ -1,0 +1,78 @@
+"""The MJX environment: jitted batch reset/step shapes, no NaN, observation layout, falls,
+time limits, waypoint hits and auto-reset."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.slow  # compiles MJX (about a minute on a 2-core CPU)
+
+BATCH = 4
+
+
+@pytest.fixture(scope="module")
+def started(env, batch_fns):
+    reset, _ = batch_fns
+    return reset(jax.random.split(jax.random.key(0), BATCH))
+
+
+def test_reset_shapes_and_layout(env, started) -> None:
+    assert env.obs_size == 76 and env.chi_size == 72 and env.action_size == 27
+    assert started.obs.shape == (BATCH, 76) and started.chi.shape == (BATCH, 72)
+    obs = np.asarray(started.obs)
+    assert np.all(np.isfinite(obs))
+    base = np.asarray(started.data.qpos[:, :3])
+    # the standing robot faces the world's +x at the identity orientation: obs[:4] = identity
+    np.testing.assert_allclose(obs[:, :4], [[1, 0, 0, 0]] * BATCH, atol=1e-6)
+    # flat ground: a single base height; then the waypoint relative to the base
+    np.testing.assert_allclose(obs[:, -4], base[:, 2], atol=1e-6)
+    np.testing.assert_allclose(obs[:, -3:], np.asarray(started.target) - base, atol=1e-5)
+    distance = np.linalg.norm(np.asarray(started.target) - base, axis=1)
+    assert np.all((distance >= 0.7 - 1e-4) & (distance <= 2.0 + 1e-4))
+
+
+def test_steps_without_nan(env, batch_fns, started) -> None:
+    _, step = batch_fns
+    state = started
+    rng = np.random.default_rng(0)
+    for _ in range(10):
+        action = jnp.asarray(rng.uniform(-1, 1, (BATCH, env.action_size)), jnp.float32)
+        state, info = step(state, action)
+    for leaf in jax.tree.leaves((state.obs, state.chi, state.data.qpos, info)):
+        assert np.all(np.isfinite(np.asarray(leaf, dtype=float)))
+    assert info.task_reward.shape == (BATCH,) and info.done.shape == (BATCH,)
+    assert int(state.steps.max()) <= 10
+    # the ideal jets integrate the thrust rate within [0, T_max]
+    assert np.all((np.asarray(state.thrust) >= 0) & (np.asarray(state.thrust) <= 250.0))
+
+
+def test_standing_still_is_stable(env, batch_fns, started) -> None:
+    _, step = batch_fns
+    state = started
+    for _ in range(30):  # half a second at 60 Hz, zero action: stand under PD
+        state, info = step(state, jnp.zeros((BATCH, env.action_size)))
+    assert not np.any(np.asarray(info.done))
+    np.testing.assert_allclose(np.asarray(state.data.qpos[:, 2]), 0.61, atol=0.02)
+    assert np.all(np.asarray(info.feet_down)) and not np.any(np.asarray(info.airborne))
+
+
+def test_fall_time_limit_and_waypoint_hit(env, batch_fns, started) -> None:
+    _, step = batch_fns
+    qpos = started.data.qpos.at[0, 2].set(0.3)  # env 0: base too low -> a fall
+    steps = started.steps.at[1].set(env.config.max_steps - 1)  # env 1: last step
+    target = started.target.at[2].set(started.data.qpos[2, :3])  # env 2: on its waypoint
+    state = started.replace(data=started.data.replace(qpos=qpos), steps=steps, target=target)
+    after, info = step(state, jnp.zeros((BATCH, env.action_size)))
+    done, truncated, hit = map(np.asarray, (info.done, info.truncated, info.hit))
+    np.testing.assert_array_equal(done, [True, True, False, False])
+    np.testing.assert_array_equal(truncated, [False, True, False, False])
+    np.testing.assert_array_equal(hit, [False, False, True, False])
+    # ended episodes start again (auto-reset); the final observation is the ended one's
+    np.testing.assert_array_equal(np.asarray(after.steps), [0, 0, 1, 1])
+    assert float(info.final_obs[0, -4]) < 0.4 and float(after.obs[0, -4]) > 0.6
+    assert int(info.episode_steps[1]) == env.config.max_steps
+    # the hit counts and a new waypoint 0.7-2.0 m from the reached one appears
+    assert int(after.reached[2]) == 1 and int(info.episode_reached[2]) == 1
+    jump = np.linalg.norm(np.asarray(after.target[2] - target[2]))
+    assert 0.7 - 1e-4 <= jump <= 2.0 + 1e-4

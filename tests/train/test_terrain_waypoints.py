@@ -1,0 +1,83 @@
+"""Terrain heights (bilinear sampling agrees with MuJoCo's heightfield) and waypoint routes."""
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from motionkit.train import terrain, waypoints
+from motionkit.train.config import EnvConfig
+
+
+def test_height_at_is_bilinear_with_rows_along_y() -> None:
+    grid = terrain.Terrain(jnp.array([[0.0, 1.0], [2.0, 3.0]]), cell=1.0)
+    points = jnp.array([[0.0, 0.0], [-0.5, -0.5], [0.5, -0.5], [-0.5, 0.5], [0.25, 0.0], [9, 9]])
+    np.testing.assert_allclose(
+        np.asarray(terrain.height_at(grid, points)), [1.5, 0.0, 1.0, 2.0, 1.75, 3.0], atol=1e-6
+    )
+
+
+def test_mixed_terrain_has_every_kind_and_flat_spawn_pads() -> None:
+    ground = terrain.mixed(16.0, seed=0)
+    heights = np.asarray(ground.heights)
+    assert heights.shape == (161, 161)
+    assert heights.min() <= -0.3  # pits and the gaps between stepping stones
+    assert 0 < np.abs(heights[(heights > -0.1)]).max() <= 0.05  # rough ground
+    spawns = jnp.asarray(terrain.tile_centres(16.0))
+    assert spawns.shape == (16, 2)
+    offsets = jnp.array([[0.0, 0.0], [0.5, 0.5], [-0.5, 0.3]])
+    around = (spawns[:, None, :] + offsets[None]).reshape(-1, 2)
+    np.testing.assert_array_equal(np.asarray(terrain.height_at(ground, around)), 0.0)
+
+
+def test_heightfield_in_mujoco_matches_height_at(robot) -> None:
+    mujoco = pytest.importorskip("mujoco")
+    from motionkit.train.env import mjcf_text
+
+    ground = terrain.mixed(8.0, seed=3)
+    model = mujoco.MjModel.from_xml_string(mjcf_text(robot, ground))
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    rng = np.random.default_rng(0)
+    points = rng.uniform(-3.5, 3.5, size=(200, 2))
+    hit = np.zeros(1, np.int32)
+    measured = []
+    for x, y in points:
+        distance = mujoco.mj_ray(
+            model, data, np.array([x, y, 5.0]), np.array([0, 0, -1.0]), None, 1, -1, hit
+        )
+        measured.append(5.0 - distance)
+    expected = np.asarray(terrain.height_at(ground, jnp.asarray(points)))
+    # MuJoCo renders the grid as triangles; bilinear differs inside a cell only on slopes
+    assert np.median(np.abs(np.array(measured) - expected)) < 1e-3
+    assert np.mean(np.abs(np.array(measured) - expected) < 0.02) > 0.9
+
+
+def test_waypoints_keep_their_spacing_and_heights() -> None:
+    config = EnvConfig(air_probability=0.3)
+    flat = terrain.flat()
+    start = jnp.array([0.0, 0.0, config.ground_height])
+    keys = jax.random.split(jax.random.key(0), 2000)
+    sample = jax.jit(jax.vmap(lambda k: waypoints.next_waypoint(k, start, config, flat, 1e6)))
+    points = np.asarray(sample(keys))
+    air = points[:, 2] > config.ground_height + 1e-6
+    assert np.mean(air) == pytest.approx(0.3, abs=0.04)
+    assert np.all((points[air, 2] >= 1.2) & (points[air, 2] <= 2.0))
+    np.testing.assert_allclose(points[~air, 2], config.ground_height)
+    distance = np.linalg.norm(points - np.asarray(start), axis=1)
+    assert distance.min() >= 0.7 - 1e-5 and distance.max() <= 2.0 + 1e-5
+    assert distance[air].min() >= 0.7 - 1e-5  # climbs count in the 3-D spacing
+
+
+def test_waypoints_stay_inside_the_bound() -> None:
+    config = dataclasses.replace(EnvConfig(), air_probability=0.0)
+    start = jnp.array([4.9, -4.9, config.ground_height])
+    keys = jax.random.split(jax.random.key(1), 200)
+    points = jax.vmap(lambda k: waypoints.next_waypoint(k, start, config, terrain.flat(), 5.0))(
+        keys
+    )
+    assert float(jnp.abs(points[:, :2]).max()) <= 5.0
+    assert bool(waypoints.reached(jnp.zeros(3), jnp.array([0.2, 0.0, 0.1]), 0.3))
+    assert not bool(waypoints.reached(jnp.zeros(3), jnp.array([0.3, 0.0, 0.1]), 0.3))

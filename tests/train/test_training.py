@@ -1,0 +1,110 @@
+"""A tiny seeded training run on the CPU through `motionkit.train.run.train`: the
+discriminator learns to tell the priors from the policy's (random) motion, the task reward
+rises, and the run folder has its logs, checkpoint and evaluation rollout; resume continues."""
+
+import csv
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from motionkit.errors import TrainError
+
+pytestmark = pytest.mark.slow  # compiles the rollout and the update (about 1-2 minutes)
+
+ITERATIONS = 80
+
+
+def learning_config(config):
+    """The tiny recipe with fast jets (3,000 N/s): random jet inputs blow the robot about and
+    cost thrust penalty, so a quick, clear task to learn is to throttle them down."""
+    env = replace(config.env, thrust_rate_max=3000.0)
+    run = replace(config.run, iterations=ITERATIONS, checkpoint_every=ITERATIONS, seed=0)
+    return replace(config, env=env, run=run)
+
+
+@pytest.fixture(scope="module")
+def run_folder(config_with_priors, robot, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from motionkit.train.run import train
+
+    out = tmp_path_factory.mktemp("run")
+    lines: list[str] = []
+    train(learning_config(config_with_priors), out, robot, progress=lines.append)
+    assert any(line.startswith(f"iter {ITERATIONS}:") for line in lines)
+    return out
+
+
+def read_csv(path: Path) -> dict[str, np.ndarray]:
+    with path.open() as stream:
+        rows = list(csv.DictReader(stream))
+    return {key: np.array([float(r[key] or "nan") for r in rows]) for key in rows[0]}
+
+
+def test_discriminator_separates_prior_from_policy_motion(run_folder: Path) -> None:
+    log = read_csv(run_folder / "train.csv")
+    start = 0.5 * (log["disc_expert_accuracy_start"] + log["disc_policy_accuracy_start"])
+    accuracy = 0.5 * (log["disc_expert_accuracy"] + log["disc_policy_accuracy"])
+    assert start[0] < 0.75  # the initial discriminator: near chance
+    assert accuracy[-10:].mean() > 0.95
+    # style reward softplus(D) of the policy's motion: about log 2 at first, then near 0
+    assert log["style_reward"][0] > 0.5 and log["style_reward"][-10:].mean() < 0.05
+
+
+def test_task_reward_rises(run_folder: Path) -> None:
+    log = read_csv(run_folder / "train.csv")
+    first, last = log["task_reward"][:10].mean(), log["task_reward"][-10:].mean()
+    assert last > first + 0.05, (first, last)
+    assert log["reward_thrust"][-10:].mean() > 0.5 * log["reward_thrust"][:10].mean()
+    assert log["airborne_share"][-10:].mean() < log["airborne_share"][:10].mean()
+
+
+def test_run_folder_contents(run_folder: Path, robot) -> None:
+    from motionkit.dataset import read
+    from motionkit.train.config import TrainConfig
+
+    log = read_csv(run_folder / "train.csv")
+    np.testing.assert_array_equal(log["iteration"], np.arange(1, ITERATIONS + 1))
+    assert np.all(np.isfinite(log["reward"])) and np.all(log["env_steps_per_second"] > 0)
+    evaluation = read_csv(run_folder / "eval.csv")
+    assert evaluation["iteration"].tolist() == [ITERATIONS]
+    share = evaluation["eval_airborne_share"] + evaluation["eval_ground_share"]
+    np.testing.assert_allclose(share, 1.0)
+    assert (run_folder / "checkpoint.msgpack").stat().st_size > 1000
+    config = TrainConfig.from_toml(run_folder / "config.toml")
+    assert config.run.iterations == ITERATIONS and sorted(config.priors) == ["flight", "walk"]
+    summary = json.loads((run_folder / "summary.json").read_text())
+    assert summary["priors"]["walk"]["clips"] == 1 and summary["iterations"] == ITERATIONS
+    clip = read(run_folder / "rollouts" / f"iter_{ITERATIONS}.mcap")
+    assert clip.metadata.kind == "rollout" and clip.frames >= 2
+    route = clip.metadata.config["waypoints"]
+    assert len(route[0]) == 4 and route[0][0] == 0.0  # [time, x, y, z]
+    assert np.all(np.isfinite(clip.base_position))
+
+
+def test_resume_continues_and_refuses_to_overwrite(
+    run_folder: Path, config_with_priors, robot
+) -> None:
+    from motionkit.train.run import train
+
+    config = learning_config(config_with_priors)
+    with pytest.raises(TrainError, match="--resume"):
+        train(config, run_folder, robot, progress=lambda _: None)
+    more = replace(config, run=replace(config.run, iterations=ITERATIONS + 2, eval_every=0))
+    lines: list[str] = []
+    summary = train(more, run_folder, robot, resume=True, progress=lines.append)
+    assert lines[0] == f"resumed {run_folder} at iteration {ITERATIONS}"
+    assert summary["iterations"] == ITERATIONS + 2
+    log = read_csv(run_folder / "train.csv")
+    assert log["iteration"][-2:].tolist() == [ITERATIONS + 1, ITERATIONS + 2]
+
+
+def test_missing_prior_is_a_clear_error(tiny_config, robot, tmp_path: Path) -> None:
+    from motionkit.train.config import PriorConfig
+    from motionkit.train.run import train
+
+    config = replace(tiny_config, priors={"walk": PriorConfig(("no/such/folder",))})
+    with pytest.raises(TrainError, match="prior 'walk': no/such/folder: no such file"):
+        train(config, tmp_path / "out", robot)
+    assert not (tmp_path / "out").exists()
