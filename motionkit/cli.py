@@ -112,6 +112,9 @@ def build_parser() -> argparse.ArgumentParser:
     from motionkit.jet_ident.command import add_commands as add_jet_commands
 
     add_jet_commands(stages)
+    from motionkit.viewer.command import add_commands as add_view_commands
+
+    add_view_commands(stages, _add_robot_source)
     return parser
 
 

@@ -27,3 +27,7 @@ class TrajoptError(MotionkitError):
 
 class JetIdentError(MotionkitError):
     """A jet bench log, thrust model file or identification config is malformed."""
+
+
+class ViewerError(MotionkitError):
+    """A clip, folder or run given to the viewer is missing, corrupt or not for this robot."""
