@@ -115,6 +115,9 @@ def build_parser() -> argparse.ArgumentParser:
     from motionkit.train.command import add_commands as add_train_commands
 
     add_train_commands(stages)
+    from motionkit.viewer.command import add_commands as add_view_commands
+
+    add_view_commands(stages, _add_robot_source)
     return parser
 
 

@@ -31,3 +31,7 @@ class JetIdentError(MotionkitError):
 
 class TrainError(MotionkitError):
     """A training config, prior dataset, checkpoint or run folder is invalid or missing."""
+
+
+class ViewerError(MotionkitError):
+    """A clip, folder or run given to the viewer is missing, corrupt or not for this robot."""

@@ -1,1 +1,23 @@
-"""The viser browser viewer (issue 8)."""
+"""The viser browser viewer (issue 8): clips, folders of clips, training runs, the robot alone.
+
+    motionkit view datasets/walk            # or: motionkit view --robot
+    from motionkit.viewer import ViewerApp, resolve_clips
+    app = ViewerApp(robot, resolve_clips("walk.mcap"))   # server on 127.0.0.1, print(app.url)
+
+sources: PATH -> checked clips; playback: the timeline; posing: link poses per frame; meshes: the
+robot's visuals (cached); scene: robot and overlays in viser; app: the server and its page.
+Importing `motionkit.viewer.app` needs the [viewer] extra (viser); the rest needs only numpy.
+"""
+
+from motionkit.viewer.playback import Playback
+from motionkit.viewer.sources import ClipInfo, resolve_clips
+
+__all__ = ["ClipInfo", "Playback", "ViewerApp", "resolve_clips"]
+
+
+def __getattr__(name: str) -> object:
+    if name == "ViewerApp":  # imports viser only when asked for
+        from motionkit.viewer.app import ViewerApp
+
+        return ViewerApp
+    raise AttributeError(f"module 'motionkit.viewer' has no attribute {name!r}")

@@ -1,0 +1,66 @@
+"""`motionkit view PATH | --robot`: a thin wrapper over motionkit.viewer.ViewerApp."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+from motionkit.errors import ViewerError
+
+VIEW_EPILOG = """\
+PATH is an MCAP clip, a folder of clips or a training run (searched recursively for *.mcap,
+newest first). Every clip's metadata, and the whole first clip (CRCs included), are checked
+before the server starts; a missing or corrupt file is an error naming it. The server listens on
+127.0.0.1 only: from another machine, forward the port (ssh -L 8080:127.0.0.1:8080 host).
+
+The page plays the motion (timeline, play/pause, speed, loop, clip picker), draws thrust arrows
+(length proportional to T/T_max, along the exhaust), sole corners green in contact, the centre of
+mass, the waypoints of rollouts and the planned contact forces when the clip has them, and plots
+joint angles and thrust. --robot shows the model alone with a slider per joint and the named
+frames (soles, sole corners, jets, elbows)."""
+
+
+def add_commands(stages: argparse._SubParsersAction, robot_source: Any) -> None:
+    view = stages.add_parser(
+        "view",
+        help="watch clips, datasets, rollouts or the robot in the browser (viser)",
+        description="Open a browser viewer of motion clips or of the robot model.",
+        epilog=VIEW_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    view.add_argument("path", nargs="?", type=Path, metavar="PATH", help="clip, folder or run")
+    view.add_argument("--robot", action="store_true", help="the robot model alone")
+    view.add_argument("--port", type=int, default=8080, help="port on 127.0.0.1 (default 8080)")
+    view.add_argument("--play", action="store_true", help="start playing at once")
+    robot_source(view)
+    view.set_defaults(handler=_view)
+
+
+def _view(args: argparse.Namespace) -> int:
+    if (args.path is None) == (not args.robot):
+        raise ViewerError("give a clip, folder or run (PATH), or --robot, but not both")
+    if not 0 < args.port < 65536:
+        raise ViewerError(f"--port must be 1 to 65535, got {args.port}")
+    try:
+        from motionkit.viewer.app import ViewerApp
+    except ImportError as exc:
+        raise ViewerError(
+            f"the viewer needs the [viewer] extra ({exc.name} is missing): "
+            "pip install 'motionkit[viewer]'"
+        ) from exc
+    from motionkit.robot import load_robot
+    from motionkit.viewer.sources import resolve_clips
+
+    clips = resolve_clips(args.path) if args.path is not None else []  # before the robot: fast
+    robot = load_robot(args.urdf, args.spec)
+    app = ViewerApp(robot, clips, port=args.port, play=args.play)
+    shown = f"{len(clips)} clip(s) from {args.path}" if clips else f"robot {robot.name}"
+    print(f"motionkit view: {shown} at {app.url} (Ctrl-C to stop)", flush=True)
+    try:
+        app.wait()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        app.close()
+    return 0

@@ -1,0 +1,153 @@
+"""PATH -> clips: files, folders (newest first), waypoints, contact forces, and clear errors for
+missing or corrupt files, raised before any server starts (in Python and from the CLI)."""
+
+import json
+import os
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from motionkit.cli import main
+from motionkit.dataset import write
+from motionkit.dataset.synthetic import synthetic_trajectory
+from motionkit.errors import ViewerError
+from motionkit.robot import ironcub
+from motionkit.viewer.sources import (
+    check_robot,
+    contact_forces,
+    describe,
+    load_motion,
+    resolve_clips,
+    waypoints,
+)
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A training run: rollouts in a subfolder, one with waypoints and metrics."""
+    robot = ironcub()
+    root = tmp_path_factory.mktemp("run")
+    (root / "rollouts").mkdir()
+    old = synthetic_trajectory(robot, 0.5, seed=1)
+    write(root / "rollouts" / "old.mcap", old, robot)
+    new = synthetic_trajectory(robot, 0.5, seed=2, kind="rollout")
+    meta = replace(
+        new.metadata,
+        generator="rollout",
+        config={"waypoints": [[0, 0, 0.6], [1.0, 0.5, 0.6], [2, 0, 1.5]]},
+        metrics={"return": 12.5, "episode_s": 0.5},
+    )
+    write(root / "rollouts" / "new.mcap", replace(new, metadata=meta), robot)
+    os.utime(root / "rollouts" / "old.mcap", (1_000_000, 1_000_000))
+    (root / "notes.txt").write_text("not a clip")
+    return root
+
+
+def test_folder_is_searched_recursively_newest_first(run_dir: Path) -> None:
+    clips = resolve_clips(run_dir)
+    assert [c.name for c in clips] == ["new", "old"]
+    assert clips[0].frames == 60 and clips[0].rate == pytest.approx(120.0)
+    assert clips[0].metadata.generator == "rollout"
+    assert resolve_clips(run_dir / "rollouts" / "old.mcap")[0].name == "old"
+
+
+def test_waypoints_from_metadata(run_dir: Path) -> None:
+    new, old = resolve_clips(run_dir)
+    np.testing.assert_allclose(waypoints(new), [[0, 0, 0.6], [1.0, 0.5, 0.6], [2, 0, 1.5]])
+    assert waypoints(old).shape == (0, 3)
+    bad = replace(new, record={**new.record, "waypoints": json.dumps([[1, 2]])})
+    with pytest.raises(ViewerError, match=r"waypoints.*list of \[x, y, z\]"):
+        waypoints(bad)
+
+
+def test_description_names_clip_source_and_metrics(run_dir: Path) -> None:
+    text = describe(resolve_clips(run_dir)[0], "a warning")
+    assert "**new** — rollout, made by rollout" in text
+    assert "60 frames, 0.49 s at 120.0 Hz" in text and "synthetic-2" in text
+    assert "| return | 12.5 |" in text and "⚠ a warning" in text
+
+
+def test_contact_forces_when_present() -> None:
+    robot = ironcub()
+    motion = synthetic_trajectory(robot, 0.1)
+    assert contact_forces(motion, 8) is None
+
+    class WithForces:  # a trajopt clip's forces: one per sole corner
+        frames = motion.frames
+        contact_forces = np.ones((motion.frames, 2, 4, 3))
+
+    assert contact_forces(WithForces(), 8).shape == (12, 8, 3)  # type: ignore[arg-type]
+    WithForces.contact_forces = np.ones((motion.frames, 5, 3))
+    with pytest.raises(ViewerError, match="one force per sole corner"):
+        contact_forces(WithForces(), 8)  # type: ignore[arg-type]
+
+
+def test_other_robot_is_refused_and_other_model_warned(run_dir: Path, toy_robot) -> None:
+    clip = resolve_clips(run_dir)[0]
+    assert check_robot(clip, ironcub()) == ""
+    with pytest.raises(ViewerError, match="not those of robot 'toy'"):
+        check_robot(clip, toy_robot)
+    other = replace(clip, metadata=replace(clip.metadata, robot_hash="0123456789abcdef"))
+    assert "model 0123456789abcdef" in check_robot(other, ironcub())
+
+
+def test_missing_and_empty(tmp_path: Path) -> None:
+    with pytest.raises(ViewerError, match=r"nothing\.mcap: no such file or folder"):
+        resolve_clips(tmp_path / "nothing.mcap")
+    with pytest.raises(ViewerError, match=r"no \.mcap clips in this folder"):
+        resolve_clips(tmp_path)
+
+
+@pytest.fixture
+def corrupt(tmp_path: Path) -> dict[str, Path]:
+    robot = ironcub()
+    good = tmp_path / "good.mcap"
+    write(good, synthetic_trajectory(robot, 2.0), robot)
+    data = bytearray(good.read_bytes())
+    truncated = tmp_path / "truncated.mcap"
+    truncated.write_bytes(bytes(data[: len(data) // 2]))
+    flipped = tmp_path / "flipped.mcap"
+    data[len(data) // 3] ^= 0xFF  # inside the compressed motion: only the CRCs notice
+    flipped.write_bytes(bytes(data))
+    text = tmp_path / "text.mcap"
+    text.write_text("hello")
+    return {"truncated": truncated, "flipped": flipped, "text": text}
+
+
+def test_corrupt_files_name_the_file(corrupt: dict[str, Path]) -> None:
+    for name in ("truncated", "text"):
+        with pytest.raises(ViewerError, match=rf"{name}\.mcap"):
+            resolve_clips(corrupt[name])
+    clip = resolve_clips(corrupt["flipped"])[0]  # the index is intact...
+    with pytest.raises(ViewerError, match=r"flipped\.mcap.*(CRC|corrupt)"):
+        load_motion(clip)  # ...the motion is not
+
+
+def test_cli_fails_before_the_server_starts(
+    corrupt: dict[str, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys
+) -> None:
+    pytest.importorskip("viser")
+    import motionkit.viewer.app as app
+
+    def no_server(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the server must not start")
+
+    monkeypatch.setattr(app.viser, "ViserServer", no_server)
+    for path in (*corrupt.values(), tmp_path / "missing.mcap"):
+        assert main(["view", str(path), "--port", "8099"]) == 2
+        error = capsys.readouterr().err
+        assert error.startswith("motionkit: error: ") and path.name in error
+    assert main(["view"]) == 2
+    assert "give a clip, folder or run" in capsys.readouterr().err
+
+
+def test_console_script_exits_non_zero(corrupt: dict[str, Path]) -> None:
+    from test_cli import run
+
+    result = run("view", str(corrupt["truncated"]))
+    assert result.returncode == 2 and "truncated.mcap" in result.stderr
+    assert "http://" not in result.stdout  # no server was announced
+    result = run("view", "--help")
+    assert result.returncode == 0 and "--robot" in result.stdout and "127.0.0.1" in result.stdout
