@@ -1,13 +1,16 @@
 """The per-knot and per-interval functions of the problem (CasADi SX, built once, mapped).
 
-`knot(w, eps)`: the ties between the knot's variables and the full kinematics (CoM, centroidal
+`knot(w, p)`: the ties between the knot's variables and the full kinematics (CoM, centroidal
 momentum, sole-corner positions, net wrench of contact forces and thrusts about the CoM), the
 contact conditions at the corners (relaxed complementarity f_z c_z <= eps, friction pyramid;
 c_z >= 0 is a bound) and the running cost.
 
-`interval(z)`, z = (w_k, w_k+1, dt): explicit-Euler multiple-shooting defects of the base pose,
+`interval(z, p)`, z = (w_k, w_k+1, dt): explicit-Euler multiple-shooting defects of the base pose,
 joints, centroidal momentum and jets, the relaxed no-slip condition while loaded, and the rate
 terms of the cost. It needs no kinematics, so its derivatives are cheap.
+
+The cost weights, friction coefficient, posture and eps are parameters p (`parameters`), not
+constants, so one compiled copy of the functions serves every config of a robot (compiled.py).
 """
 
 from __future__ import annotations
@@ -23,6 +26,11 @@ from motionkit.trajopt.kinematics import GRAVITY, RobotKinematics
 from motionkit.trajopt.layout import MOMENTUM_UNIT, KnotLayout
 
 NOMINAL_DT = 0.075  # s, scales the rate terms of the cost
+KNOT_WEIGHTS = (
+    "com_velocity", "angular_momentum", "joint_velocity", "posture", "base_orientation",
+    "contact_force", "thrust", "thrust_rate", "complementarity",
+)  # fmt: skip
+INTERVAL_WEIGHTS = ("com_acceleration", "angular_momentum_rate", "throttle_rate")
 
 
 @dataclass(frozen=True)
@@ -76,9 +84,28 @@ class ProblemFunctions:
         self.knot = self._knot()
         self.interval = self._interval()
 
+    def parameters(self, eps: float) -> np.ndarray:
+        """The parameter vector p of both functions: eps, mu, the weights, the posture."""
+        weights = self.config.weights
+        return np.concatenate(
+            [
+                [eps, self.config.contacts.mu],
+                [getattr(weights, name) for name in KNOT_WEIGHTS + INTERVAL_WEIGHTS],
+                self.posture,
+            ]
+        )
+
+    def _symbols(self) -> tuple[cs.SX, dict[str, cs.SX], cs.SX]:
+        p = cs.SX.sym("p", 2 + len(KNOT_WEIGHTS) + len(INTERVAL_WEIGHTS) + self.layout.joints)
+        names = KNOT_WEIGHTS + INTERVAL_WEIGHTS
+        weights = {name: p[2 + i] for i, name in enumerate(names)}
+        return p, weights, p[2 + len(names) :]
+
     def _knot(self) -> cs.Function:
-        lay, weights, mu = self.layout, self.config.weights, self.config.contacts.mu
-        w, eps = cs.SX.sym("w", lay.size), cs.SX.sym("eps")
+        lay = self.layout
+        w = cs.SX.sym("w", lay.size)
+        p, weights, posture = self._symbols()
+        eps, mu = p[0], p[1]
         b = physical(lay, w)
         com, momentum, corners, jet_pos, jet_dir = self.kinematics.knot(w[lay.q], w[lay.nu])
         force, moment = wrench(b, jet_pos, jet_dir, lay.corners)
@@ -101,18 +128,18 @@ class ProblemFunctions:
         )
         upright = w[lay["base_quaternion"]] - cs.DM([1.0, 0.0, 0.0, 0.0])
         cost = (
-            weights.com_velocity * cs.sumsqr(b["com_velocity"])
-            + weights.angular_momentum * cs.sumsqr(w[lay["angular_momentum"]])
-            + weights.joint_velocity * cs.sumsqr(b["joint_velocities"])
-            + weights.posture * cs.sumsqr(b["joints"] - self.posture)
-            + weights.base_orientation * cs.sumsqr(upright)
-            + weights.contact_force * cs.sumsqr(w[lay["forces"]])
-            + weights.thrust * cs.sumsqr(w[lay["thrust"]])
-            + weights.thrust_rate * cs.sumsqr(w[lay["thrust_rate"]])
-            + weights.complementarity * cs.dot(normal, heights)
+            weights["com_velocity"] * cs.sumsqr(b["com_velocity"])
+            + weights["angular_momentum"] * cs.sumsqr(w[lay["angular_momentum"]])
+            + weights["joint_velocity"] * cs.sumsqr(b["joint_velocities"])
+            + weights["posture"] * cs.sumsqr(b["joints"] - posture)
+            + weights["base_orientation"] * cs.sumsqr(upright)
+            + weights["contact_force"] * cs.sumsqr(w[lay["forces"]])
+            + weights["thrust"] * cs.sumsqr(w[lay["thrust"]])
+            + weights["thrust_rate"] * cs.sumsqr(w[lay["thrust_rate"]])
+            + weights["complementarity"] * cs.dot(normal, heights)
         )
         constraints = cs.vertcat(ties, eps - normal * heights, friction)
-        return cs.Function("knot", [w, eps], [constraints, cost], ["w", "eps"], ["g", "cost"])
+        return cs.Function("knot", [w, p], [constraints, cost], ["w", "p"], ["g", "cost"])
 
     def knot_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Bounds of the knot constraints: ties = 0, then complementarity and friction >= 0."""
@@ -124,8 +151,9 @@ class ProblemFunctions:
         return lower, upper
 
     def _interval(self) -> cs.Function:
-        lay, weights, config = self.layout, self.config.weights, self.config
+        lay, config = self.layout, self.config
         z = cs.SX.sym("z", 2 * lay.size + 1)
+        p, weights, _ = self._symbols()
         w0, w1, dt = z[: lay.size], z[lay.size : 2 * lay.size], z[-1]
         a, b = physical(lay, w0), physical(lay, w1)
         gravity = cs.DM([0.0, 0.0, -GRAVITY])
@@ -148,12 +176,12 @@ class ProblemFunctions:
         slip = cs.vec(cs.repmat(normal, 2, 1) * step)  # |f_z (p_k+1 - p_k)| <= slip_eps
         change = w1 - w0
         cost = (
-            weights.com_acceleration * cs.sumsqr(b["com_velocity"] - a["com_velocity"])
-            + weights.angular_momentum_rate * cs.sumsqr(change[lay["angular_momentum"]])
-            + weights.throttle_rate * cs.sumsqr(change[lay["throttle"]])
+            weights["com_acceleration"] * cs.sumsqr(b["com_velocity"] - a["com_velocity"])
+            + weights["angular_momentum_rate"] * cs.sumsqr(change[lay["angular_momentum"]])
+            + weights["throttle_rate"] * cs.sumsqr(change[lay["throttle"]])
         ) / NOMINAL_DT**2
         g = cs.vertcat(*defects, slip)
-        return cs.Function("interval", [z], [g, cost], ["z"], ["g", "cost"])
+        return cs.Function("interval", [z, p], [g, cost], ["z", "p"], ["g", "cost"])
 
     def interval_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Defects = 0, then -slip_eps <= slip <= slip_eps."""

@@ -3,27 +3,30 @@
 x = (vec(W), dt); g = (knot constraints of every knot, interval constraints of every interval);
 f = (sum of knot and interval costs) / N. The knot function is mapped over the columns and the
 interval function over (w_k, w_k+1, dt); the gradient, Jacobian and Hessian of the Lagrangian
-given to IPOPT are assembled from the terms' own small derivatives (assembly.py). Scenarios
-add bounds on knot variables through `bound` and `fix`.
+given to IPOPT are assembled from the terms' own small derivatives (assembly.py), compiled to C
+where a compiler is available (compiled.py). The NLP parameter is `functions.parameters(eps)`.
+Scenarios add bounds on knot variables through `bound` and `fix`.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import casadi as cs
 import numpy as np
 
 from motionkit.trajopt.assembly import Scatter
+from motionkit.trajopt.compiled import compile_groups
 from motionkit.trajopt.config import TrajoptConfig
 from motionkit.trajopt.dynamics import ProblemFunctions
 from motionkit.trajopt.layout import KnotLayout
 
 
-def _derivatives(function: cs.Function, params: int) -> tuple[cs.Function, ...]:
+def _derivatives(function: cs.Function) -> tuple[cs.Function, ...]:
     """Gradient of the cost, Jacobian of g and upper-triangular Hessian of the Lagrangian of a
-    term function (inputs: variables, then `params` parameters; outputs g, cost)."""
-    inputs = [cs.SX.sym(function.name_in(i), function.sparsity_in(i)) for i in range(1 + params)]
+    term function (inputs: variables, parameters; outputs g, cost)."""
+    inputs = [cs.SX.sym(function.name_in(i), function.sparsity_in(i)) for i in range(2)]
     g, cost = function(*inputs)
     z = inputs[0]
     sigma, lam = cs.SX.sym("sigma"), cs.SX.sym("lam", g.shape[0])
@@ -40,6 +43,7 @@ class Problem:
     def __init__(self, functions: ProblemFunctions, knots: int) -> None:
         self.functions, self.knots = functions, knots
         lay = self.layout
+        self.reference: dict[str, cs.MX] = {}  # set by nlp()
         self.lower = np.full((lay.size, knots), -np.inf)
         self.upper = np.full((lay.size, knots), np.inf)
         self._default_bounds()
@@ -130,25 +134,35 @@ class Problem:
         }
 
     # -- the NLP and its derivatives -----------------------------------------------------------
-    def nlp(self) -> tuple[dict[str, cs.MX], dict[str, Any]]:
+    def nlp(
+        self, log: Callable[[str], None] | None = None
+    ) -> tuple[dict[str, cs.MX], dict[str, Any]]:
         """The NLP dict and the nlpsol options that give IPOPT the assembled derivatives."""
         fn, lay, n = self.functions, self.layout, self.knots
         size = lay.size
         nx = n * size + 1
-        x, eps = cs.MX.sym("x", nx), cs.MX.sym("eps")
+        x, p = cs.MX.sym("x", nx), cs.MX.sym("p", fn.knot.size1_in(1))
         W = cs.reshape(x[:-1], size, n)
         dt = x[-1]
         Z = cs.vertcat(W[:, :-1], W[:, 1:], cs.repmat(dt, 1, n - 1))
-        knot_map, int_map = fn.knot.map(n, "serial"), fn.interval.map(n - 1, "serial")
-        g_knot, c_knot = knot_map(W, eps)
-        g_int, c_int = int_map(Z)
-        f = (cs.sum2(c_knot) + cs.sum2(c_int)) / n
-        g = cs.vertcat(cs.vec(g_knot), cs.vec(g_int))
-        ng_knot, ng_int = g_knot.shape[0], g_int.shape[0]
-        ng = g.shape[0]
+        (knot, knot_grad, knot_jac, knot_hess), (interval, int_grad, int_jac, int_hess) = (
+            compile_groups(
+                [[fn.knot, *_derivatives(fn.knot)], [fn.interval, *_derivatives(fn.interval)]],
+                log,
+            )
+        )
 
-        knot_grad, knot_jac, knot_hess = _derivatives(fn.knot, 1)
-        int_grad, int_jac, int_hess = _derivatives(fn.interval, 0)
+        def objective_and_constraints(knot: cs.Function, interval: cs.Function) -> list[cs.MX]:
+            g_knot, c_knot = knot.map(n, "serial")(W, p)
+            g_int, c_int = interval.map(n - 1, "serial")(Z, p)
+            f = (cs.sum2(c_knot) + cs.sum2(c_int)) / n
+            return [f, cs.vertcat(cs.vec(g_knot), cs.vec(g_int))]
+
+        f, g = objective_and_constraints(knot, interval)
+        # the same f and g from the uncompiled functions, for checks by automatic differentiation
+        reference = objective_and_constraints(fn.knot, fn.interval)
+        self.reference = {"f": reference[0], "g": reference[1]}
+        ng_knot, ng_int, ng = fn.knot.size1_out(0), fn.interval.size1_out(0), g.shape[0]
 
         # index maps of the copies: knot k -> its columns; interval k -> (w_k, w_k+1, dt)
         knot_cols = [k * size + np.arange(size) for k in range(n)]
@@ -159,10 +173,10 @@ class Problem:
         int_rows = [n * ng_knot + k * ng_int + np.arange(ng_int) for k in range(n - 1)]
 
         # gradient of f
-        grad_int = int_grad.map(n - 1, "serial")(Z)
+        grad_int = int_grad.map(n - 1, "serial")(Z, p)
         pad = cs.MX.zeros(size, 1)
         grad_w = (
-            knot_grad.map(n, "serial")(W, eps)
+            knot_grad.map(n, "serial")(W, p)
             + cs.horzcat(grad_int[:size, :], pad)
             + cs.horzcat(pad, grad_int[size : 2 * size, :])
         )
@@ -171,7 +185,8 @@ class Problem:
         # Jacobian of g
         jac_knot = Scatter(knot_jac.sparsity_out(0), knot_rows, knot_cols, (ng, nx))
         jac_int = Scatter(int_jac.sparsity_out(0), int_rows, int_cols, (ng, nx))
-        jac = jac_knot(knot_jac.map(n, "serial")(W, eps)) + jac_int(int_jac.map(n - 1, "serial")(Z))
+        jac = jac_knot(knot_jac.map(n, "serial")(W, p))
+        jac += jac_int(int_jac.map(n - 1, "serial")(Z, p))
 
         # Hessian of the Lagrangian (upper triangle)
         sigma, lam = cs.MX.sym("sigma"), cs.MX.sym("lam", ng)
@@ -179,12 +194,12 @@ class Problem:
         lam_int = cs.reshape(lam[n * ng_knot :], ng_int, n - 1)
         hess_knot = Scatter(knot_hess.sparsity_out(0), knot_cols, knot_cols, (nx, nx))
         hess_int = Scatter(int_hess.sparsity_out(0), int_cols, int_cols, (nx, nx))
-        hess = hess_knot(knot_hess.map(n, "serial")(W, eps, sigma / n, lam_knot)) + hess_int(
-            int_hess.map(n - 1, "serial")(Z, sigma / n, lam_int)
+        hess = hess_knot(knot_hess.map(n, "serial")(W, p, sigma / n, lam_knot)) + hess_int(
+            int_hess.map(n - 1, "serial")(Z, p, sigma / n, lam_int)
         )
         options = {
-            "grad_f": cs.Function("grad_f", [x, eps], [f, grad]),
-            "jac_g": cs.Function("jac_g", [x, eps], [g, jac]),
-            "hess_lag": cs.Function("hess_lag", [x, eps, sigma, lam], [cs.triu(hess)]),
+            "grad_f": cs.Function("grad_f", [x, p], [f, grad]),
+            "jac_g": cs.Function("jac_g", [x, p], [g, jac]),
+            "hess_lag": cs.Function("hess_lag", [x, p, sigma, lam], [cs.triu(hess)]),
         }
-        return {"x": x, "f": f, "g": g, "p": eps}, options
+        return {"x": x, "f": f, "g": g, "p": p}, options

@@ -77,7 +77,11 @@ class Prepared:
     """A problem and its IPOPT solvers, built once (reuse it for many targets of one config)."""
 
     def __init__(
-        self, robot: Robot, config: TrajoptConfig, kinematics: RobotKinematics | None = None
+        self,
+        robot: Robot,
+        config: TrajoptConfig,
+        kinematics: RobotKinematics | None = None,
+        log: Callable[[str], None] | None = None,
     ) -> None:
         start = clock.perf_counter()
         self.kinematics = kinematics or RobotKinematics(robot)
@@ -88,7 +92,7 @@ class Prepared:
         self.config = config
         self.problem = Problem(functions, config.scenario.knots)
         self.guess, self.dt_guess = apply_scenario(self.problem)
-        nlp, derivatives = self.problem.nlp()
+        nlp, derivatives = self.problem.nlp(log)
         self.cold = cs.nlpsol("trajopt", "ipopt", nlp, derivatives | self._options(warm=False))
         self.warm = (
             cs.nlpsol("trajopt_warm", "ipopt", nlp, derivatives | self._options(warm=True))
@@ -119,7 +123,7 @@ class Prepared:
                 "warm_start_slack_bound_push": 1e-6,
                 "warm_start_mult_bound_push": 1e-6,
             }
-        return {"ipopt": ipopt, "print_time": False}
+        return {"ipopt": ipopt, "print_time": False, "calc_lam_p": False}
 
     def solve(self, log: Callable[[str], None] | None = None) -> Solution:
         """Run the homotopy; raise TrajoptError when the last step does not converge."""
@@ -133,7 +137,7 @@ class Prepared:
         for i, eps in enumerate(self.config.contacts.eps):
             solver = self.cold if i == 0 or not self.config.solver.warm_start else self.warm
             start = clock.perf_counter()
-            result = solver(**args, p=eps)
+            result = solver(**args, p=self.problem.functions.parameters(eps))
             stats = solver.stats()
             steps.append(
                 Step(
@@ -186,4 +190,4 @@ def solve(
     log: Callable[[str], None] | None = None,
 ) -> Solution:
     """Build and solve one scenario."""
-    return Prepared(robot, config, kinematics).solve(log)
+    return Prepared(robot, config, kinematics, log).solve(log)
