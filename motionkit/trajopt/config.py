@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from motionkit.errors import TrajoptError
-from motionkit.tomlfile import read_toml
+from motionkit.tomlfile import build_dataclass, read_toml
 
 SCENARIOS = ("takeoff", "walk_to_fly", "flight_to_waypoint", "landing", "jet_jump")
 STARTS = ("stand", "hover")
@@ -171,24 +171,7 @@ class TrajoptConfig:
         return self.scenario.kind or default.get(self.scenario.name, self.scenario.name)
 
 
-def _build(cls: type, values: dict[str, Any], where: str) -> Any:
+def _build(cls: type, values: Any, where: str) -> Any:
     if not isinstance(values, dict):
         raise TrajoptError(f"{where}: expected a table, got {values!r}")
-    default = cls()
-    known = {f.name for f in fields(cls)}
-    unknown = sorted(set(values) - known)
-    if unknown:
-        raise TrajoptError(f"{where}: unknown keys {unknown}; known: {sorted(known)}")
-    converted = {}
-    for key, value in values.items():
-        expected = getattr(default, key)
-        if isinstance(expected, tuple) and isinstance(value, list):
-            value = tuple(float(v) if isinstance(v, int) else v for v in value)
-        elif isinstance(expected, float) and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)
-        if not isinstance(value, type(expected)):
-            raise TrajoptError(
-                f"{where}: '{key}' should be {type(expected).__name__}, got {value!r}"
-            )
-        converted[key] = value
-    return replace(default, **converted)
+    return build_dataclass(cls, values, where, TrajoptError)
