@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import itertools
+import multiprocessing
 import os
 import sys
 from concurrent.futures import ProcessPoolExecutor
@@ -120,6 +121,14 @@ def _batch_task(task: tuple[dict[str, Any], str, str, bool]) -> tuple[str, bool,
     return name, True, _summary(name, metrics)
 
 
+def _compile_once(config: TrajoptConfig) -> None:
+    """Build the compiled functions in this process, so that the workers find them cached."""
+    from motionkit.robot import ironcub
+    from motionkit.trajopt.solve import Prepared
+
+    Prepared(ironcub(), config, log=lambda text: print(text, flush=True))
+
+
 def _run(args: argparse.Namespace) -> int:
     config = _config(args)
     if args.grid is None:
@@ -141,7 +150,10 @@ def _run(args: argparse.Namespace) -> int:
         item = config.with_scenario(target=tuple(target))
         tasks.append((item.to_dict(), str(args.out), _stem(item), not args.no_replay))
     failed = 0
-    with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+    if len(tasks) > 1 and args.jobs > 1:
+        _compile_once(config)
+    spawn = multiprocessing.get_context("spawn")  # no fork of a process that may hold threads
+    with ProcessPoolExecutor(max_workers=max(1, args.jobs), mp_context=spawn) as pool:
         for name, ok, text in pool.map(_batch_task, tasks):
             failed += not ok
             print(text if ok else f"{name}: FAILED: {text}", flush=True)

@@ -105,3 +105,22 @@ def test_infeasible_request_reports_and_writes_nothing(
     error = capsys.readouterr().err
     assert "IPOPT status" in error and "largest constraint violation" in error
     assert not out.exists() or not any(out.iterdir())
+
+
+def test_grid_solves_each_target_in_worker_processes(tmp_path: Path) -> None:
+    recipe = tmp_path / "takeoff.toml"
+    recipe.write_text((RECIPES / "takeoff.toml").read_text().replace("knots = 20", "knots = 14"))
+    out = tmp_path / "library"
+    code = cli(
+        "--scenario", "takeoff", "--config", str(recipe), "--out", str(out),
+        "--grid", "0", "0", "0.9,1.0", "--jobs", "2", "--quiet", "--no-replay",
+    )  # fmt: skip
+    assert code == 0
+    clips = sorted(out.glob("*.mcap"))
+    assert [clip.name for clip in clips] == [
+        "takeoff_+0p00_+0p00_+0p90.mcap",
+        "takeoff_+0p00_+0p00_+1p00.mcap",
+    ]
+    for clip, height in zip(clips, (0.9, 1.0), strict=True):
+        knots = np.load(clip.with_suffix("").with_suffix(".knots.npz"))
+        assert knots["com"][-1] == pytest.approx([0.0, 0.0, height], abs=0.01)
