@@ -60,7 +60,7 @@ class Weights:
     throttle_rate: float = 0.1  # (%/s / 100 %/s)^2
     # Exact penalty on sum f_z c_z (f_z in m g / 8, c_z in m): drives the relaxed
     # complementarity to zero without making the constraint itself degenerate.
-    complementarity: float = 1000.0
+    complementarity: float = 10.0
 
 
 @dataclass(frozen=True)
@@ -69,7 +69,7 @@ class Contacts:
     # Relaxed complementarity f_z c_z <= eps, f_z in units of m g / 8: the homotopy solves with
     # each value in turn, warm-started from the previous solution.
     eps: tuple[float, ...] = (1e-2, 1e-6)
-    slip_eps: float = 1e-6  # no slip while loaded: |f_z * step of the corner| <= this [m]
+    slip_eps: float = 1e-4  # no slip while loaded: |f_z * step of the corner| <= this [m]
 
 
 @dataclass(frozen=True)
@@ -91,7 +91,7 @@ class Solver:
     max_cpu_time: float = 600.0  # s per IPOPT call
     print_level: int = 5  # IPOPT's; 0 = quiet
     warm_start: bool = True  # warm-start each homotopy step from the previous one
-    mu_strategy: str = "monotone"  # IPOPT's barrier update: 'monotone' or 'adaptive'
+    mu_strategy: str = "adaptive"  # IPOPT's barrier update: 'monotone' or 'adaptive'
     options: dict[str, Any] = field(default_factory=dict)  # further IPOPT options, verbatim
 
 
