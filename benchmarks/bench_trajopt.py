@@ -1,17 +1,19 @@
 """Trajectory optimisation: the walk-to-fly problem (trajopt/walk_to_fly.toml) with N knots.
 
-    OMP_NUM_THREADS=1 python benchmarks/bench_trajopt.py [--knots 100] [--baseline limited-memory]
+    OMP_NUM_THREADS=1 python benchmarks/bench_trajopt.py [--knots 100] [--baseline NAME]
 
 Target (issue 5, 2-core dev machine): N = 100 solved to IPOPT's tolerance in <= 60 s. For
 reference the published solver took about 27.5 min (HSL ma97, limited-memory Hessian). The
-baseline in the same run is the same problem with a limited-memory Hessian, or without the
-warm start of the complementarity homotopy. Prints problem size, iterations, wall time and
-residuals of each.
+baseline in the same run is the same problem with a limited-memory Hessian, without the warm
+start of the complementarity homotopy, or with the derivatives left uncompiled. The first run
+on a machine also compiles the derivatives to C (1-2 min, cached; in "build"). Prints problem
+size, iterations, wall time and residuals of each.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -57,7 +59,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--knots", type=int, default=100)
     parser.add_argument(
-        "--baseline", choices=("limited-memory", "no-warm-start", "none"), default="no-warm-start"
+        "--baseline",
+        choices=("limited-memory", "no-warm-start", "uncompiled", "none"),
+        default="no-warm-start",
     )
     parser.add_argument("--max-iter", type=int, default=1000)
     args = parser.parse_args()
@@ -71,6 +75,9 @@ def main() -> None:
         "limited-memory": ("limited-memory Hessian", {"hessian": "limited-memory"}),
         "no-warm-start": ("no warm start", {"warm_start": False}),
     }
+    if args.baseline == "uncompiled":  # derivatives in CasADi's virtual machine, as before
+        os.environ["MOTIONKIT_TRAJOPT_COMPILE"] = "0"
+        run("uncompiled derivatives", config, kinematics)
     if args.baseline in baselines:
         label, change = baselines[args.baseline]
         run(label, replace(config, solver=replace(config.solver, **change)), kinematics)
