@@ -112,6 +112,9 @@ def build_parser() -> argparse.ArgumentParser:
     from motionkit.jet_ident.command import add_commands as add_jet_commands
 
     add_jet_commands(stages)
+    from motionkit.trajopt.command import add_commands as add_trajopt_commands
+
+    add_trajopt_commands(stages)
     from motionkit.train.command import add_commands as add_train_commands
 
     add_train_commands(stages)

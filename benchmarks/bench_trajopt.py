@@ -1,0 +1,87 @@
+"""Trajectory optimisation: the walk-to-fly problem (trajopt/walk_to_fly.toml) with N knots.
+
+    OMP_NUM_THREADS=1 python benchmarks/bench_trajopt.py [--knots 100] [--baseline NAME]
+
+Target (issue 5, 2-core dev machine): N = 100 solved to IPOPT's tolerance in <= 60 s. For
+reference the published solver took about 27.5 min (HSL ma97, limited-memory Hessian). The
+baseline in the same run is the same problem with a limited-memory Hessian, without the warm
+start of the complementarity homotopy, or with the derivatives left uncompiled. The first run
+on a machine also compiles the derivatives to C (1-2 min, cached; in "build"). Prints problem
+size, iterations, wall time and residuals of each.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from dataclasses import replace
+from pathlib import Path
+
+from motionkit.errors import TrajoptError
+from motionkit.robot.model import ironcub
+from motionkit.trajopt.checks import check_solution
+from motionkit.trajopt.config import TrajoptConfig
+from motionkit.trajopt.kinematics import RobotKinematics
+from motionkit.trajopt.solve import Prepared
+
+RECIPE = Path(__file__).resolve().parents[1] / "trajopt" / "walk_to_fly.toml"
+
+
+def run(label: str, config: TrajoptConfig, kinematics: RobotKinematics) -> None:
+    robot = kinematics.robot
+    start = time.perf_counter()
+    prepared = Prepared(robot, config, kinematics)
+    try:
+        solution = prepared.solve()
+    except TrajoptError as exc:
+        wall = time.perf_counter() - start
+        print(f"{label:<24} FAILED after {wall:.1f} s: {exc}")
+        return
+    wall = time.perf_counter() - start
+    checks = check_solution(solution, robot)
+    steps = ", ".join(f"eps {s.eps:g}: {s.iterations} it {s.seconds:.1f} s" for s in solution.steps)
+    print(
+        f"{label:<24} {solution.status}: {solution.variables} variables, "
+        f"{solution.constraints} constraints, {solution.iterations} iterations, "
+        f"wall {wall:.1f} s (build {solution.build_seconds:.1f} s, solve "
+        f"{solution.solve_seconds:.1f} s) [{steps}]"
+    )
+    print(
+        f"{'':<24} residuals: dynamics {checks['residual_dynamics']:.2g}, kinematic ties "
+        f"{checks['residual_kinematic_ties']:.2g}, complementarity "
+        f"{checks['complementarity_violation_nm']:.2g} N m, target error "
+        f"{checks['target_error_m'] * 1000:.2f} mm, checks passed: {checks['passed']}"
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--knots", type=int, default=100)
+    parser.add_argument(
+        "--baseline",
+        choices=("limited-memory", "no-warm-start", "uncompiled", "none"),
+        default="no-warm-start",
+    )
+    parser.add_argument("--max-iter", type=int, default=1000)
+    args = parser.parse_args()
+
+    config = TrajoptConfig.from_toml(RECIPE).with_scenario(knots=args.knots)
+    config = replace(config, solver=replace(config.solver, print_level=0, max_iter=args.max_iter))
+    kinematics = RobotKinematics(ironcub())
+    print(f"walk-to-fly, N = {args.knots} knots (target <= 60 s; published: ~27.5 min)")
+    run("exact Hessian, warm", config, kinematics)
+    baselines = {
+        "limited-memory": ("limited-memory Hessian", {"hessian": "limited-memory"}),
+        "no-warm-start": ("no warm start", {"warm_start": False}),
+    }
+    if args.baseline == "uncompiled":  # derivatives in CasADi's virtual machine, as before
+        os.environ["MOTIONKIT_TRAJOPT_COMPILE"] = "0"
+        run("uncompiled derivatives", config, kinematics)
+    if args.baseline in baselines:
+        label, change = baselines[args.baseline]
+        run(label, replace(config, solver=replace(config.solver, **change)), kinematics)
+
+
+if __name__ == "__main__":
+    main()

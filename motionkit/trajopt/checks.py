@@ -1,0 +1,73 @@
+"""Checks of a solution: residuals, complementarity, target, thrust limits (metadata figures)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from motionkit.robot import Robot
+from motionkit.trajopt.solve import Solution, violation
+
+ON_GROUND = 1e-3  # m: a corner at most this high is on the floor
+TARGET_TOLERANCE = 0.01  # m
+COMPLEMENTARITY_TOLERANCE = 1e-4  # N m, largest f_z c_z of any corner at any knot
+
+
+def check_solution(solution: Solution, robot: Robot) -> dict[str, Any]:
+    """Figures that say whether the solution is physically consistent; `passed` sums them up."""
+    knots, config = solution.knots, solution.config
+    scenario = config.scenario
+    worst = violation(solution.constraint_values, solution.lower, solution.upper)
+    groups = {
+        name: float(worst[rows].max(initial=0.0))
+        for name, rows in solution.constraint_groups.items()
+    }
+    normal = knots["forces"][:, 2::3]
+    heights = knots["corners"][:, 2::3]
+    complementarity = float(np.max(np.maximum(normal, 0) * np.maximum(heights, 0)))
+    off_ground = float(np.max(np.where(heights > ON_GROUND, normal, 0.0), initial=0.0))
+    target = np.array(scenario.target)
+    end = knots["com"][-1]
+    error = end - target if scenario.end == "hover" else (end - target)[:2]
+    t_max = np.array([jet.t_max for jet in robot.spec.jets]) * scenario.thrust_fraction
+    thrust = knots["thrust"]
+    thrust_ok = bool(np.all(thrust >= -1e-6) and np.all(thrust <= t_max + 1e-6))
+    tolerance = config.solver.constr_viol_tol
+    figures: dict[str, Any] = {
+        "residual_kinematic_ties": groups["kinematic ties"],
+        "residual_dynamics": groups["dynamics defects"],
+        "residual_contact": groups["contact"],
+        "residual_no_slip": groups["no-slip"],
+        "complementarity_violation_nm": complementarity,
+        "max_force_off_ground_n": off_ground,
+        "target_error_m": float(np.linalg.norm(error)),
+        "thrust_min_n": float(thrust.min()),
+        "thrust_max_n": float(thrust.max()),
+        "thrust_within_limits": thrust_ok,
+    }
+    figures["passed"] = bool(
+        max(groups.values()) <= 10 * tolerance
+        and complementarity < COMPLEMENTARITY_TOLERANCE
+        and figures["target_error_m"] <= TARGET_TOLERANCE
+        and thrust_ok
+    )
+    return figures
+
+
+def solver_figures(solution: Solution) -> dict[str, Any]:
+    return {
+        "variables": solution.variables,
+        "constraints": solution.constraints,
+        "knots": len(solution.knots["com"]),
+        "dt_s": solution.dt,
+        "duration_s": solution.dt * (len(solution.knots["com"]) - 1),
+        "iterations": solution.iterations,
+        "status": solution.status,
+        "build_s": round(solution.build_seconds, 3),
+        "solve_s": round(solution.solve_seconds, 3),
+        "homotopy": [
+            {"eps": s.eps, "status": s.status, "iterations": s.iterations, "s": round(s.seconds, 3)}
+            for s in solution.steps
+        ],
+    }

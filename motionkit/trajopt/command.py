@@ -1,0 +1,161 @@
+"""`motionkit trajopt`: solve a flight scenario (or a grid of targets) and write MCAP clips."""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import multiprocessing
+import os
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+from motionkit.errors import MotionkitError, TrajoptError
+from motionkit.trajopt.config import SCENARIOS, TrajoptConfig
+
+EPILOG = """\
+Recipes for every scenario are in trajopt/*.toml. Targets are world positions [m] of the centre
+of mass; the robot starts at the origin facing -x (iRonCub's root link x axis points backwards).
+Each solution is checked (residuals, complementarity, target within 1 cm, thrust limits, MuJoCo
+replay); a request that cannot be solved exits with status 1 and writes nothing."""
+
+
+def add_commands(stages: argparse._SubParsersAction) -> None:
+    parser = stages.add_parser(
+        "trajopt",
+        help="flight motions by trajectory optimisation (CasADi + IPOPT)",
+        description="Solve a take-off, walk-to-fly, flight, landing or jump scenario and write "
+        "it as an MCAP clip, the knots (.knots.npz) and the resolved config (.config.json).",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--scenario", choices=SCENARIOS, required=True)
+    parser.add_argument("--config", type=Path, help="a recipe TOML (default: built-in defaults)")
+    parser.add_argument("--out", type=Path, required=True, help="output folder")
+    parser.add_argument("--name", help="file name stem (default: the scenario and target)")
+    parser.add_argument("--target", type=float, nargs=3, metavar=("X", "Y", "Z"))
+    parser.add_argument("--height", type=float, help="target CoM height [m] (sets target z)")
+    parser.add_argument("--start", type=float, nargs=3, metavar=("X", "Y", "Z"),
+                        help="hover start CoM position [m]")  # fmt: skip
+    parser.add_argument("--knots", type=int)
+    parser.add_argument("--quiet", action="store_true", help="hide IPOPT's iteration log")
+    parser.add_argument("--no-replay", action="store_true", help="skip the MuJoCo replay")
+    parser.add_argument(
+        "--grid",
+        nargs=3,
+        metavar=("XS", "YS", "ZS"),
+        help="batch mode: comma-separated target values per axis (e.g. -1,0 0 1,1.5)",
+    )
+    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
+                        help="parallel processes in batch mode")  # fmt: skip
+    parser.set_defaults(handler=_run)
+
+
+def _config(args: argparse.Namespace) -> TrajoptConfig:
+    config = TrajoptConfig.from_toml(args.config) if args.config else TrajoptConfig()
+    changes: dict[str, Any] = {"name": args.scenario}
+    if args.target is not None:
+        changes["target"] = tuple(args.target)
+    if args.height is not None:
+        target = changes.get("target", config.scenario.target)
+        changes["target"] = (target[0], target[1], args.height)
+    if args.start is not None:
+        changes["start_position"] = tuple(args.start)
+    if args.knots is not None:
+        changes["knots"] = args.knots
+    if args.quiet:
+        config = replace(config, solver=replace(config.solver, print_level=0))
+    return config.with_scenario(**changes)
+
+
+def _stem(config: TrajoptConfig) -> str:
+    x, y, z = config.scenario.target
+    return f"{config.scenario.name}_{x:+.2f}_{y:+.2f}_{z:+.2f}".replace(".", "p")
+
+
+def run_one(config: TrajoptConfig, out: Path, name: str, replay: bool = True) -> dict[str, Any]:
+    """Solve, check and write one scenario; raise TrajoptError (nothing written) on failure."""
+    from motionkit.robot.model import ironcub
+    from motionkit.trajopt.checks import check_solution, solver_figures
+    from motionkit.trajopt.output import write_outputs
+    from motionkit.trajopt.solve import solve
+
+    robot = ironcub()
+    solution = solve(robot, config, log=lambda line: print(f"[{name}] {line}", flush=True))
+    metrics = solver_figures(solution) | check_solution(solution, robot)
+    if replay:
+        from motionkit.trajopt.replay import replay as run_replay
+
+        metrics |= run_replay(solution, robot)
+    if not metrics["passed"]:
+        raise TrajoptError(
+            f"{name}: the solution fails its checks: "
+            + ", ".join(f"{k} = {v}" for k, v in metrics.items() if not isinstance(v, list))
+        )
+    write_outputs(out, name, solution, robot, metrics)
+    return metrics
+
+
+def _summary(name: str, metrics: dict[str, Any]) -> str:
+    text = (
+        f"{name}: {metrics['status']}, {metrics['iterations']} iterations, "
+        f"{metrics['solve_s']:.1f} s (+{metrics['build_s']:.1f} s build); "
+        f"{metrics['variables']} variables, {metrics['constraints']} constraints; "
+        f"target error {metrics['target_error_m'] * 1000:.2f} mm, complementarity "
+        f"{metrics['complementarity_violation_nm']:.2g} N m, dynamics residual "
+        f"{metrics['residual_dynamics']:.2g}"
+    )
+    if "replay_base_error_max_m" in metrics:
+        text += f"; replay base error max {metrics['replay_base_error_max_m']:.3f} m"
+    return text
+
+
+def _batch_task(task: tuple[dict[str, Any], str, str, bool]) -> tuple[str, bool, str]:
+    data, out, name, replay = task
+    try:
+        metrics = run_one(TrajoptConfig.from_dict(data), Path(out), name, replay)
+    except MotionkitError as exc:
+        return name, False, str(exc)
+    return name, True, _summary(name, metrics)
+
+
+def _compile_once(config: TrajoptConfig) -> None:
+    """Build the compiled functions in this process, so that the workers find them cached."""
+    from motionkit.robot import ironcub
+    from motionkit.trajopt.solve import Prepared
+
+    Prepared(ironcub(), config, log=lambda text: print(text, flush=True))
+
+
+def _run(args: argparse.Namespace) -> int:
+    config = _config(args)
+    if args.grid is None:
+        name = args.name or _stem(config)
+        try:
+            metrics = run_one(config, args.out, name, not args.no_replay)
+        except TrajoptError as exc:
+            print(f"motionkit: trajopt failed: {exc}", file=sys.stderr)
+            return 1
+        print(_summary(name, metrics))
+        print(f"wrote {args.out / name}.mcap (+ .knots.npz, .config.json)")
+        return None
+    try:
+        axes = [[float(v) for v in axis.split(",")] for axis in args.grid]
+    except ValueError as exc:
+        raise TrajoptError(f"--grid: expected comma-separated numbers ({exc})") from exc
+    tasks = []
+    for target in itertools.product(*axes):
+        item = config.with_scenario(target=tuple(target))
+        tasks.append((item.to_dict(), str(args.out), _stem(item), not args.no_replay))
+    failed = 0
+    if len(tasks) > 1 and args.jobs > 1:
+        _compile_once(config)
+    spawn = multiprocessing.get_context("spawn")  # no fork of a process that may hold threads
+    with ProcessPoolExecutor(max_workers=max(1, args.jobs), mp_context=spawn) as pool:
+        for name, ok, text in pool.map(_batch_task, tasks):
+            failed += not ok
+            print(text if ok else f"{name}: FAILED: {text}", flush=True)
+    print(f"{len(tasks) - failed} of {len(tasks)} targets solved; clips in {args.out}")
+    return 1 if failed else None

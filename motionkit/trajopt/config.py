@@ -1,0 +1,177 @@
+"""The trajectory-optimisation config: frozen dataclasses, defaults here, filled from TOML recipes.
+
+A recipe (trajopt/*.toml) has top-level keys of `TrajoptConfig` and the tables [scenario],
+[weights], [contacts], [jets] and [solver]. The CLI overrides single scenario fields.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any
+
+from motionkit.errors import TrajoptError
+from motionkit.tomlfile import build_dataclass, read_toml
+
+SCENARIOS = ("takeoff", "walk_to_fly", "flight_to_waypoint", "landing", "jet_jump")
+STARTS = ("stand", "hover")
+ENDS = ("stand", "hover")
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """Boundary conditions and waypoints. Positions are world coordinates [m] of the centre of
+    mass; the robot starts at the origin facing its spec's forward direction (-x for iRonCub)."""
+
+    name: str = "takeoff"
+    knots: int = 40
+    start: str = "stand"  # stand: the spec posture on the floor; hover: at `start_position`
+    start_position: tuple[float, ...] = (0.0, 0.0, 1.0)  # hover start only
+    end: str = "hover"  # hover: CoM at `target`, at rest; stand: on the floor below `target`
+    target: tuple[float, ...] = (0.0, 0.0, 1.0)  # stand end: only x, y count
+    # One step before anything else (walk_to_fly): foot side ('' = none), length along the
+    # forward direction [m], the knot fraction where it lands, swing clearance [m].
+    step_foot: str = ""
+    step_length: float = 0.2
+    step_land: float = 0.3
+    step_clearance: float = 0.03
+    # A jump (jet_jump): every sole corner at least `apex_clearance` [m] above the floor at the
+    # knot fraction `apex_at`; 0 = none.
+    apex_clearance: float = 0.0
+    apex_at: float = 0.5
+    thrust_fraction: float = 1.0  # the jets' thrust limit as a fraction of T_max
+    kind: str = ""  # dataset label; default: from the scenario name
+
+
+@dataclass(frozen=True)
+class Weights:
+    """Cost weights (of squared, scaled terms; only their ratios matter)."""
+
+    com_acceleration: float = 1.0  # (m/s^2)^2
+    com_velocity: float = 0.1  # (m/s)^2
+    angular_momentum: float = 1.0  # (kg m^2/s)^2 / 10^2
+    angular_momentum_rate: float = 1.0
+    joint_velocity: float = 0.1  # (rad/s)^2
+    posture: float = 1.0  # rad^2
+    base_orientation: float = 10.0  # quaternion distance from upright
+    contact_force: float = 0.01  # (N / (m g / 8))^2
+    thrust: float = 0.01  # (N / 100 N)^2
+    thrust_rate: float = 0.1  # (N/s / 100 N/s)^2
+    throttle_rate: float = 0.1  # (%/s / 100 %/s)^2
+    # Exact penalty on sum f_z c_z (f_z in m g / 8, c_z in m): drives the relaxed
+    # complementarity to zero without making the constraint itself degenerate.
+    complementarity: float = 10.0
+
+
+@dataclass(frozen=True)
+class Contacts:
+    mu: float = 0.33  # friction pyramid (published setting)
+    # Relaxed complementarity f_z c_z <= eps, f_z in units of m g / 8: the homotopy solves with
+    # each value in turn, warm-started from the previous solution.
+    eps: tuple[float, ...] = (1e-2, 1e-6)
+    slip_eps: float = 1e-4  # no slip while loaded: |f_z * step of the corner| <= this [m]
+
+
+@dataclass(frozen=True)
+class Jets:
+    model: str = "p250"  # 'p250': second-order model with throttle input; 'rate': Tdot input
+    max_rate: float = 300.0  # N/s, the bound on Tdot of the 'rate' model
+
+
+@dataclass(frozen=True)
+class Solver:
+    dt: float = 0.0  # a fixed time step [s]; 0: optimised within [dt_min, dt_max]
+    dt_min: float = 0.05
+    dt_max: float = 0.1
+    max_joint_velocity: float = 7.0  # rad/s (published bound), and the robot's own limits
+    hessian: str = "exact"  # or 'limited-memory'
+    tol: float = 1e-6
+    constr_viol_tol: float = 1e-6
+    max_iter: int = 500
+    max_cpu_time: float = 600.0  # s per IPOPT call
+    print_level: int = 5  # IPOPT's; 0 = quiet
+    warm_start: bool = True  # warm-start each homotopy step from the previous one
+    mu_strategy: str = "adaptive"  # IPOPT's barrier update: 'monotone' or 'adaptive'
+    options: dict[str, Any] = field(default_factory=dict)  # further IPOPT options, verbatim
+
+
+@dataclass(frozen=True)
+class TrajoptConfig:
+    rate: float = 50.0  # Hz of the written clip (resampled from the knots)
+    scenario: Scenario = Scenario()
+    weights: Weights = Weights()
+    contacts: Contacts = Contacts()
+    jets: Jets = Jets()
+    solver: Solver = Solver()
+
+    @classmethod
+    def from_toml(cls, path: Path) -> TrajoptConfig:
+        return cls.from_dict(read_toml(path, "config", TrajoptError), str(path))
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], source: str = "<config>") -> TrajoptConfig:
+        nested = {f.name: type(getattr(cls(), f.name)) for f in fields(cls) if f.name != "rate"}
+        values = {
+            key: _build(nested[key], value, f"{source}: [{key}]") if key in nested else value
+            for key, value in data.items()
+        }
+        config = _build(cls, values, source)
+        config.validate(source)
+        return config
+
+    def with_scenario(self, **changes: Any) -> TrajoptConfig:
+        """The same config with some scenario fields replaced (CLI overrides)."""
+        changes = {k: tuple(v) if isinstance(v, list) else v for k, v in changes.items()}
+        config = replace(self, scenario=replace(self.scenario, **changes))
+        config.validate("<command line>")
+        return config
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def validate(self, source: str) -> None:
+        s, solver = self.scenario, self.solver
+
+        def bad(field: str, expected: str, value: object) -> TrajoptError:
+            return TrajoptError(f"{source}: '{field}' should be {expected}, got {value!r}")
+
+        if s.name not in SCENARIOS:
+            raise bad("scenario.name", f"one of {', '.join(SCENARIOS)}", s.name)
+        if s.start not in STARTS:
+            raise bad("scenario.start", f"one of {', '.join(STARTS)}", s.start)
+        if s.end not in ENDS:
+            raise bad("scenario.end", f"one of {', '.join(ENDS)}", s.end)
+        if s.knots < 8:
+            raise bad("scenario.knots", "at least 8", s.knots)
+        for name in ("target", "start_position"):
+            if len(getattr(s, name)) != 3:
+                raise bad(f"scenario.{name}", "3 numbers [m]", getattr(s, name))
+        if s.step_foot not in ("", "left", "right"):
+            raise bad("scenario.step_foot", "'', 'left' or 'right'", s.step_foot)
+        if not 0 < s.thrust_fraction <= 1:
+            raise bad("scenario.thrust_fraction", "in (0, 1]", s.thrust_fraction)
+        if not (0 < s.step_land < 1 and 0 < s.apex_at < 1):
+            raise bad("scenario.step_land / apex_at", "fractions in (0, 1)", s)
+        if self.jets.model not in ("p250", "rate"):
+            raise bad("jets.model", "'p250' or 'rate'", self.jets.model)
+        if solver.hessian not in ("exact", "limited-memory"):
+            raise bad("solver.hessian", "'exact' or 'limited-memory'", solver.hessian)
+        if not 0 < solver.dt_min <= solver.dt_max:
+            raise bad("solver.dt_min/dt_max", "0 < dt_min <= dt_max", solver)
+        if solver.dt < 0:
+            raise bad("solver.dt", ">= 0 s", solver.dt)
+        if not self.contacts.eps or min(self.contacts.eps) <= 0:
+            raise bad("contacts.eps", "a non-empty list of positive numbers", self.contacts.eps)
+        if self.rate <= 0:
+            raise bad("rate", "> 0 Hz", self.rate)
+
+    @property
+    def kind(self) -> str:
+        default = {"walk_to_fly": "takeoff", "flight_to_waypoint": "flight", "jet_jump": "jump"}
+        return self.scenario.kind or default.get(self.scenario.name, self.scenario.name)
+
+
+def _build(cls: type, values: Any, where: str) -> Any:
+    if not isinstance(values, dict):
+        raise TrajoptError(f"{where}: expected a table, got {values!r}")
+    return build_dataclass(cls, values, where, TrajoptError)

@@ -1,0 +1,81 @@
+"""A solution as a dataset clip (resampled to the dataset rate) plus the knots themselves."""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.spatial.transform import Slerp
+
+from motionkit.dataset import Metadata, Source, Trajectory, write
+from motionkit.outputs import atomic_output, write_text_atomic
+from motionkit.robot import Robot
+from motionkit.robot.geometry import from_rotation, to_rotation
+from motionkit.trajopt.solve import Solution
+
+CONTACT_FORCE = 1.0  # N: a foot is in contact when its corners carry more than this in total
+
+
+def to_trajectory(solution: Solution, robot: Robot, metrics: dict[str, Any]) -> Trajectory:
+    """The knots resampled to `config.rate` (linear; quaternions by slerp)."""
+    knots, config = solution.knots, solution.config
+    time = solution.time
+    frames = int(np.floor(time[-1] * config.rate + 1e-9)) + 1
+    out_time = np.arange(frames) / config.rate
+
+    def lerp(name: str) -> np.ndarray:
+        values = knots[name]
+        return np.stack(
+            [np.interp(out_time, time, values[:, i]) for i in range(values.shape[1])], 1
+        )
+
+    slerp = Slerp(time, to_rotation(knots["base_quaternion"]))
+    quats = from_rotation(slerp(out_time))
+    per_foot = knots["forces"].shape[1] // 3 // len(robot.spec.feet)
+    normal = knots["forces"][:, 2::3].reshape(len(time), len(robot.spec.feet), per_foot)
+    loaded = normal.sum(axis=2) > CONTACT_FORCE
+    contact_index = np.clip(np.searchsorted(time, out_time, "right") - 1, 0, len(time) - 1)
+    throttle = lerp("throttle") if config.jets.model == "p250" else None
+    return Trajectory(
+        time=out_time,
+        base_position=lerp("base_position"),
+        base_orientation=quats,
+        joint_names=robot.joint_names,
+        joint_positions=lerp("joints"),
+        joint_velocities=lerp("joint_velocities"),
+        base_linear_velocity=lerp("base_velocity"),
+        base_angular_velocity=lerp("base_angular_velocity"),
+        thrust=lerp("thrust"),
+        throttle=throttle,
+        contacts=loaded[contact_index],
+        jet_names=tuple(jet.name for jet in robot.spec.jets),
+        foot_names=tuple(foot.side for foot in robot.spec.feet),
+        metadata=Metadata(
+            robot=robot.name,
+            robot_hash=robot.model_hash,
+            kind=config.kind,
+            generator="trajopt",
+            source=Source(clip=config.scenario.name),
+            config=json.loads(json.dumps(config.to_dict())),
+            metrics=metrics,
+        ),
+    )
+
+
+def write_outputs(
+    folder: Path, name: str, solution: Solution, robot: Robot, metrics: dict[str, Any]
+) -> Path:
+    """`name`.mcap (the clip), `name`.knots.npz (every knot block [SI], dt, time) and
+    `name`.config.json (the resolved config and the figures); each written atomically."""
+    folder = Path(folder)
+    clip = write(folder / f"{name}.mcap", to_trajectory(solution, robot, metrics), robot)
+    buffer = io.BytesIO()
+    np.savez_compressed(buffer, time=solution.time, dt=solution.dt, **solution.knots)
+    with atomic_output(folder / f"{name}.knots.npz") as stream:
+        stream.write(buffer.getvalue())
+    resolved = {"config": solution.config.to_dict(), "metrics": metrics}
+    write_text_atomic(folder / f"{name}.config.json", json.dumps(resolved, indent=2) + "\n")
+    return clip

@@ -1,0 +1,126 @@
+"""Small solved problems (take-off, landing), their checks, outputs, CLI and the infeasible path."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from motionkit.dataset import read
+from motionkit.robot.model import ironcub
+from motionkit.trajopt.checks import check_solution
+from motionkit.trajopt.command import add_commands
+from motionkit.trajopt.config import TrajoptConfig
+from motionkit.trajopt.replay import replay
+from motionkit.trajopt.solve import solve
+
+RECIPES = Path(__file__).resolve().parents[2] / "trajopt"
+pytestmark = pytest.mark.slow
+
+
+def small(recipe: str, knots: int = 16) -> TrajoptConfig:
+    config = TrajoptConfig.from_toml(RECIPES / f"{recipe}.toml").with_scenario(knots=knots)
+    return replace(config, solver=replace(config.solver, print_level=0))
+
+
+def cli(*argv: str) -> int:
+    parser = argparse.ArgumentParser()
+    add_commands(parser.add_subparsers())
+    args = parser.parse_args(["trajopt", *argv])
+    return args.handler(args) or 0
+
+
+def test_recipes_load() -> None:
+    names = {path.stem for path in RECIPES.glob("*.toml")}
+    assert names == {"takeoff", "walk_to_fly", "flight_to_waypoint", "landing", "jet_jump"}
+    for path in RECIPES.glob("*.toml"):
+        assert TrajoptConfig.from_toml(path).scenario.name == path.stem
+
+
+@pytest.mark.parametrize("recipe", ["takeoff", "landing"])
+def test_small_problem_solves_and_passes_checks(recipe: str) -> None:
+    robot = ironcub()
+    solution = solve(robot, small(recipe))
+    checks = check_solution(solution, robot)
+    assert checks["passed"], checks
+    assert checks["target_error_m"] < 0.01
+    assert checks["complementarity_violation_nm"] < 1e-4
+    assert checks["max_force_off_ground_n"] < 0.5
+    assert checks["residual_dynamics"] < 1e-5
+    knots = solution.knots
+    corners_z = knots["corners"][:, 2::3]
+    if recipe == "takeoff":  # on the floor at first, all corners off it at the end
+        assert knots["forces"][0, 2::3].sum() > 300.0
+        assert corners_z[-1].min() > 0.05
+    else:  # in the air at first, every corner on the floor at the end
+        assert corners_z[0].min() > 0.05
+        assert np.abs(corners_z[-1]).max() < 1e-6
+    assert knots["thrust"].max() <= 250.0 + 1e-6 and knots["thrust"].min() >= -1e-6
+    # Open-loop replay in MuJoCo: within 10 cm over the first third of the motion,
+    # drifting afterwards (a flying robot without feedback); the bound is loose on purpose.
+    errors = replay(solution, robot)["replay_base_error_per_knot_m"]
+    assert max(errors[: len(errors) // 3]) < 0.1
+    assert max(errors) < 2.5
+
+
+def test_cli_writes_clip_with_metrics(tmp_path: Path) -> None:
+    recipe = tmp_path / "takeoff.toml"
+    recipe.write_text((RECIPES / "takeoff.toml").read_text().replace("knots = 20", "knots = 14"))
+    code = cli(
+        "--scenario", "takeoff", "--config", str(recipe), "--out", str(tmp_path / "out"),
+        "--height", "0.9", "--quiet", "--name", "hop",
+    )  # fmt: skip
+    assert code == 0
+    clip = read(tmp_path / "out" / "hop.mcap")
+    assert clip.metadata.kind == "takeoff" and clip.metadata.generator == "trajopt"
+    metrics = clip.metadata.metrics
+    assert metrics["passed"] and metrics["target_error_m"] < 0.01
+    assert "replay_base_error_max_m" in metrics
+    assert clip.contacts[0].all() and not clip.contacts[-1].any()
+    assert clip.rate == pytest.approx(50.0)
+    knots = np.load(tmp_path / "out" / "hop.knots.npz")
+    assert knots["com"][-1] == pytest.approx([0.0, 0.0, 0.9], abs=0.01)
+    resolved = json.loads((tmp_path / "out" / "hop.config.json").read_text())
+    assert resolved["config"]["scenario"]["target"] == [0.0, 0.0, 0.9]
+
+
+def test_infeasible_request_reports_and_writes_nothing(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    recipe = tmp_path / "high.toml"
+    recipe.write_text(
+        (RECIPES / "takeoff.toml").read_text().replace("knots = 20", "knots = 10")
+        + "max_iter = 60\n"
+    )
+    out = tmp_path / "out"
+    code = cli(
+        "--scenario", "takeoff", "--config", str(recipe), "--out", str(out),
+        "--height", "40.0", "--quiet", "--no-replay",
+    )  # fmt: skip
+    assert code == 1
+    error = capsys.readouterr().err
+    assert "IPOPT status" in error and "largest constraint violation" in error
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_grid_solves_each_target_in_worker_processes(tmp_path: Path) -> None:
+    recipe = tmp_path / "takeoff.toml"
+    recipe.write_text((RECIPES / "takeoff.toml").read_text().replace("knots = 20", "knots = 14"))
+    out = tmp_path / "library"
+    code = cli(
+        "--scenario", "takeoff", "--config", str(recipe), "--out", str(out),
+        "--grid", "0", "0", "0.9,1.0", "--jobs", "2", "--quiet", "--no-replay",
+    )  # fmt: skip
+    assert code == 0
+    clips = sorted(out.glob("*.mcap"))
+    assert [clip.name for clip in clips] == [
+        "takeoff_+0p00_+0p00_+0p90.mcap",
+        "takeoff_+0p00_+0p00_+1p00.mcap",
+    ]
+    for clip, height in zip(clips, (0.9, 1.0), strict=True):
+        knots = np.load(clip.with_suffix("").with_suffix(".knots.npz"))
+        assert knots["com"][-1] == pytest.approx([0.0, 0.0, height], abs=0.01)
