@@ -121,6 +121,9 @@ def build_parser() -> argparse.ArgumentParser:
     from motionkit.viewer.command import add_commands as add_view_commands
 
     add_view_commands(stages, _add_robot_source)
+    from motionkit.pipeline.command import add_commands as add_pipeline_commands
+
+    add_pipeline_commands(stages)
     return parser
 
 

@@ -35,3 +35,7 @@ class TrainError(MotionkitError):
 
 class ViewerError(MotionkitError):
     """A clip, folder or run given to the viewer is missing, corrupt or not for this robot."""
+
+
+class PipelineError(MotionkitError):
+    """A pipeline config is invalid, or one of its stages failed."""

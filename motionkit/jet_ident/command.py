@@ -130,12 +130,19 @@ def _simulate(args: argparse.Namespace) -> int:
 
 def _fit(args: argparse.Namespace) -> int:
     _require_train_extra()
+    fit_logs(args.logs, Path(args.out), _config(args.config))
+    return 0
+
+
+def fit_logs(paths: list[Path], out: Path, config: JetIdentConfig) -> dict[str, Any]:
+    """Fit the LSTM and the baselines to the bench logs at `paths`, print the comparison and
+    write OUT/model.npz, config.toml, report.json, report.txt, history.csv (and
+    validation.png with matplotlib); returns the report."""
     from motionkit.jet_ident.evaluate import report_table
     from motionkit.jet_ident.export import baselines_metadata, save_model
     from motionkit.jet_ident.fit import identify, lstm_wins
 
-    config = _config(args.config)
-    logs = [read_log(path) for path in args.logs]  # every log checked before the long part
+    logs = [read_log(path) for path in paths]  # every log checked before the long part
     names = [log.name for log in logs]
     print(
         f"{len(logs)} log(s): "
@@ -144,7 +151,7 @@ def _fit(args: argparse.Namespace) -> int:
     result = identify(logs, config, lambda line: print(line, flush=True))
     table = report_table(result.metrics, result.floor)
     report: dict[str, Any] = {
-        "logs": [str(p) for p in args.logs],
+        "logs": [str(p) for p in paths],
         "validation_fraction": config.train.validation_fraction,
         "warmup": config.train.warmup,
         "metrics": {name: m.to_dict() for name, m in result.metrics.items()},
@@ -163,7 +170,6 @@ def _fit(args: argparse.Namespace) -> int:
         "config": config.to_dict(),
         "report": report,
     }
-    out = Path(args.out)
     save_model(out / "model.npz", result.training.params, metadata)
     write_text_atomic(out / "config.toml", config.to_toml())
     write_text_atomic(out / "report.json", json.dumps(report, indent=2) + "\n")
@@ -180,7 +186,7 @@ def _fit(args: argparse.Namespace) -> int:
     print(f"LSTM beats both baselines: {'yes' if report['lstm_beats_baselines'] else 'NO'}")
     _try_plot(out / "validation.png", result.validation[0], result.models(), config.train.warmup)
     print(f"wrote {out}/model.npz, config.toml, report.json, report.txt, history.csv")
-    return 0
+    return report
 
 
 def _eval(args: argparse.Namespace) -> int:

@@ -12,7 +12,13 @@ from typing import Any
 
 from motionkit.errors import RetargetError
 from motionkit.outputs import write_text_atomic
-from motionkit.retarget.batch import QUALITY, ClipResult, resolve_inputs, retarget_all
+from motionkit.retarget.batch import (
+    QUALITY,
+    ClipInput,
+    ClipResult,
+    resolve_inputs,
+    retarget_all,
+)
 from motionkit.retarget.config import RetargetConfig
 
 RETARGET_EPILOG = """\
@@ -84,10 +90,21 @@ def _retarget(args: argparse.Namespace) -> int:
     base = args.config.parent if args.config else Path.cwd()
     recipe = [str(base / c) if (base / c).exists() else c for c in config.clips]
     clips = resolve_inputs([*recipe, *args.inputs])
-    print(f"retargeting {len(clips)} clip(s) into {args.out} with {min(jobs, len(clips))} job(s)")
-    results = retarget_all(
-        clips, args.out, config, jobs, (args.urdf, args.spec), report=_report_clip
-    )
+    results = run_retarget(clips, args.out, config, jobs, (args.urdf, args.spec))
+    return 1 if any(r.output is None for r in results) else 0
+
+
+def run_retarget(
+    clips: list[ClipInput],
+    out: Path,
+    config: RetargetConfig,
+    jobs: int,
+    robot_source: tuple[Path | None, Path | None] = (None, None),
+) -> list[ClipResult]:
+    """Retarget `clips` into `out` with progress lines, the quality table and
+    OUT/retarget_summary.json; returns every clip's result (failed ones have no output)."""
+    print(f"retargeting {len(clips)} clip(s) into {out} with {min(jobs, len(clips))} job(s)")
+    results = retarget_all(clips, out, config, jobs, robot_source, report=_report_clip)
     _print_table(results)
     done = [r for r in results if r.output is not None]
     if done:
@@ -95,12 +112,11 @@ def _retarget(args: argparse.Namespace) -> int:
             "config": config.to_dict(),
             "clips": [_result_json(r) for r in results],
         }
-        write_text_atomic(args.out / "retarget_summary.json", json.dumps(summary, indent=2))
+        write_text_atomic(out / "retarget_summary.json", json.dumps(summary, indent=2))
     failed = len(results) - len(done)
     if failed:
         print(f"{failed} of {len(results)} clip(s) failed; nothing written for them")
-        return 1
-    return 0
+    return results
 
 
 def _report_clip(result: ClipResult, done: int, total: int) -> None:

@@ -79,7 +79,7 @@ def _common(parser: argparse.ArgumentParser, priors: bool = True, required: bool
     parser.add_argument("--seed", type=int, help="override [run] seed")
 
 
-def _require_train_extra() -> None:
+def require_train_extra() -> None:
     try:
         import flax  # noqa: F401
         import jax  # noqa: F401
@@ -116,7 +116,7 @@ def _config(args: argparse.Namespace):  # -> TrainConfig
     return replace(config, run=run)
 
 
-def _enable_compile_cache() -> None:
+def enable_compile_cache() -> None:
     """Keep XLA's compiled programs in the user cache: a resumed run or the next setting of an
     ablation skips most of the minutes MJX takes to compile."""
     import jax
@@ -130,25 +130,25 @@ def _enable_compile_cache() -> None:
 def _train(args: argparse.Namespace) -> int:
     if args.config is None or args.out is None:
         raise TrainError("train needs --config TOML and --out DIR (see motionkit train --help)")
-    _require_train_extra()
+    require_train_extra()
     from motionkit.robot import ironcub
     from motionkit.train.run import train
 
     config = _config(args)
     config = config.select_priors(parse_priors(args.priors, list(config.priors)))
-    _enable_compile_cache()
+    enable_compile_cache()
     summary = train(config, args.out, ironcub(), resume=args.resume, progress=_print)
     print(f"wrote {args.out}: {summary['iterations']} iterations in {summary['seconds']:.0f} s")
     return 0
 
 
 def _ablation(args: argparse.Namespace) -> int:
-    _require_train_extra()
+    require_train_extra()
     from motionkit.robot import ironcub
     from motionkit.train.ablation import run_ablation
 
     config = _config(args)
-    _enable_compile_cache()
+    enable_compile_cache()
     result = run_ablation(config, args.out, ironcub(), progress=_print)
     print(json.dumps(result["figures"], indent=2))
     print(f"wrote {args.out}/ablation.json and {args.out}/ablation.png")

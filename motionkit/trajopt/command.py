@@ -98,7 +98,7 @@ def run_one(config: TrajoptConfig, out: Path, name: str, replay: bool = True) ->
     return metrics
 
 
-def _summary(name: str, metrics: dict[str, Any]) -> str:
+def summary_line(name: str, metrics: dict[str, Any]) -> str:
     text = (
         f"{name}: {metrics['status']}, {metrics['iterations']} iterations, "
         f"{metrics['solve_s']:.1f} s (+{metrics['build_s']:.1f} s build); "
@@ -118,7 +118,7 @@ def _batch_task(task: tuple[dict[str, Any], str, str, bool]) -> tuple[str, bool,
         metrics = run_one(TrajoptConfig.from_dict(data), Path(out), name, replay)
     except MotionkitError as exc:
         return name, False, str(exc)
-    return name, True, _summary(name, metrics)
+    return name, True, summary_line(name, metrics)
 
 
 def _compile_once(config: TrajoptConfig) -> None:
@@ -138,7 +138,7 @@ def _run(args: argparse.Namespace) -> int:
         except TrajoptError as exc:
             print(f"motionkit: trajopt failed: {exc}", file=sys.stderr)
             return 1
-        print(_summary(name, metrics))
+        print(summary_line(name, metrics))
         print(f"wrote {args.out / name}.mcap (+ .knots.npz, .config.json)")
         return None
     try:

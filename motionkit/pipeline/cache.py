@@ -1,0 +1,99 @@
+"""Stage caching: a stage's key is the hash of everything it reads (input files, resolved
+config, the keys of the stages before it, its source code and main libraries); a stage whose
+key and output are unchanged is not run again."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import asdict, dataclass
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+from motionkit.outputs import write_text_atomic
+
+PACKAGE = Path(__file__).resolve().parent.parent  # the motionkit package folder
+
+
+def digest(*parts: Any) -> str:
+    """A short hash of JSON-serialisable parts (paths and other objects as their str)."""
+    text = json.dumps(parts, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def file_digest(path: Path) -> str:
+    hasher = hashlib.sha256()
+    with open(path, "rb") as stream:
+        for block in iter(lambda: stream.read(1 << 20), b""):
+            hasher.update(block)
+    return hasher.hexdigest()
+
+
+def source_digest(packages: Iterable[str]) -> str:
+    """The hash of motionkit's source files in these subpackages (code changes rerun a stage)."""
+    hasher = hashlib.sha256()
+    for name in sorted(packages):
+        for path in sorted((PACKAGE / name).rglob("*")):
+            if path.suffix in (".py", ".toml"):
+                hasher.update(str(path.relative_to(PACKAGE)).encode())
+                hasher.update(path.read_bytes())
+    return hasher.hexdigest()[:16]
+
+
+def versions(*distributions: str) -> dict[str, str]:
+    found = {}
+    for name in distributions:
+        try:
+            found[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            found[name] = "absent"
+    return found
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What a stage did: 'ran' or 'cached', how long it took when it ran, what it made."""
+
+    stage: str
+    status: str
+    seconds: float
+    made: str
+    output: str
+    key: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def run_cached(
+    stage: str,
+    key: str,
+    output: Path,
+    records: Path,
+    work: Callable[[Path], str],
+    force: bool = False,
+) -> Outcome:
+    """Run `work(OUTPUT)` unless OUTPUT exists from a run with the same key; `work` returns
+    the line saying what it made. The output of an older key is removed first, and a failed
+    or interrupted stage removes what it wrote: no partial output is left."""
+    record_path = records / f"{stage}.json"
+    if not force and output.exists() and record_path.exists():
+        record = json.loads(record_path.read_text())
+        if record.get("key") == key:
+            return Outcome(stage, "cached", record["seconds"], record["made"], str(output), key)
+    record_path.unlink(missing_ok=True)  # a record never vouches for a folder being rewritten
+    shutil.rmtree(output, ignore_errors=True)
+    output.mkdir(parents=True)
+    start = time.perf_counter()
+    try:
+        made = work(output)
+    except BaseException:
+        shutil.rmtree(output, ignore_errors=True)
+        raise
+    outcome = Outcome(stage, "ran", round(time.perf_counter() - start, 1), made, str(output), key)
+    write_text_atomic(record_path, json.dumps(outcome.to_dict(), indent=2) + "\n")
+    return outcome

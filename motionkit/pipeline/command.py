@@ -1,0 +1,145 @@
+"""`motionkit pipeline`: run every stage, skipping those whose inputs did not change."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+import time
+from pathlib import Path
+
+from motionkit.errors import PipelineError
+from motionkit.outputs import write_text_atomic
+from motionkit.pipeline.config import PipelineConfig
+from motionkit.pipeline.stages import STAGES, Context
+
+DEFAULT_CONFIG = Path("pipeline/tiny_cpu.toml")
+STAGE_NAMES = tuple(name for name, _ in STAGES)
+NEEDED = ("placo", "pinocchio", "casadi", "adam", "jax", "flax", "optax", "mujoco")
+
+EPILOG = """\
+Stages, in order, each into its folder of OUT:
+  retarget   walk/      CMU clips (the retarget recipe's ids, fetched into the cache, or every
+                        .bvh/.amc under --mocap-dir) onto the robot
+  trajopt    flight/    one flight per trajopt recipe (take-off, flight, landing, jump,
+                        walk-to-fly), each checked and replayed in MuJoCo
+  jet_ident  jet/       simulated P250 bench logs and the LSTM thrust model fitted to them
+  datasets   datasets/  every clip validated against the robot; index.json
+  train      train/     the AMP + PPO run (tiny CPU recipe; the paper's GPU recipe with --full)
+A stage runs again only when what it reads changed: input files, its resolved recipe, the
+stages before it, motionkit's code for it or its main libraries (the hash is its key, kept in
+OUT/.pipeline/). A failing stage removes what it wrote, and the pipeline stops with status 2.
+OUT/pipeline_summary.json holds the table printed at the end.
+
+  motionkit pipeline --mocap-dir ~/mocap/cmu --out runs/pipeline
+  motionkit view runs/pipeline/walk"""
+
+
+def add_commands(stages: argparse._SubParsersAction) -> None:
+    parser = stages.add_parser(
+        "pipeline",
+        help="everything from raw data to a trained policy, cached stage by stage",
+        description="Retarget CMU mocap, optimise the flight scenarios, identify the jet model, "
+        "check the datasets and train the walking-and-flying policy, in one command. Stages "
+        "whose inputs did not change are not run again.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument(
+        "--config",
+        type=Path,
+        default=DEFAULT_CONFIG,
+        help=f"pipeline recipe (default: {DEFAULT_CONFIG}, from the repository root)",
+    )
+    parser.add_argument("--out", type=Path, default=Path("runs/pipeline"),
+                        help="output folder (default: runs/pipeline)")  # fmt: skip
+    parser.add_argument("--mocap-dir", type=Path, help="retarget every .bvh/.amc in this folder "
+                        "instead of downloading the recipe's CMU clips")  # fmt: skip
+    parser.add_argument(
+        "--full", action="store_true", help="train with the paper's GPU recipe, not the tiny one"
+    )
+    parser.add_argument("--force", action="store_true", help="run every stage, cached or not")
+    parser.add_argument(
+        "--until",
+        choices=STAGE_NAMES,
+        help="stop after this stage (the later stages are neither run nor checked)",
+    )
+    parser.set_defaults(handler=_run)
+
+
+def _require_extras() -> None:
+    for module in NEEDED:
+        try:
+            importlib.import_module(module)
+        except ImportError as exc:
+            raise PipelineError(
+                f"the pipeline needs every stage's extra ({module} is missing): "
+                "pip install 'motionkit[all]'"
+            ) from exc
+
+
+def _run(args: argparse.Namespace) -> int:
+    if not args.config.is_file():
+        raise PipelineError(
+            f"{args.config}: no such pipeline recipe (run from the repository root, or pass "
+            "--config; pipeline/tiny_cpu.toml is the example)"
+        )
+    config = PipelineConfig.from_toml(args.config)
+    _require_extras()
+    if args.full:
+        _warn_without_gpu()
+    ctx = Context(config, args.out.resolve(), args.mocap_dir, args.full, args.force)
+    start = time.perf_counter()
+    outcomes = []
+    last = STAGE_NAMES.index(args.until or STAGE_NAMES[-1])
+    for number, (name, stage) in enumerate(STAGES[: last + 1], 1):
+        print(f"\n=== [{number}/{last + 1}] {name}", flush=True)
+        tick = time.perf_counter()
+        try:
+            outcome = stage(ctx)
+        except PipelineError:
+            raise
+        except Exception as exc:
+            print(f"\n=== {name} failed after {time.perf_counter() - tick:.0f} s", file=sys.stderr)
+            if isinstance(exc, KeyboardInterrupt | SystemExit):
+                raise
+            raise PipelineError(f"stage {name}: {exc}") from exc
+        outcomes.append(outcome)
+        if outcome.status == "cached":
+            print(f"cached (key {outcome.key}): {outcome.made}")
+        else:
+            print(f"=== {name} done in {outcome.seconds:.0f} s: {outcome.made}")
+    total = time.perf_counter() - start
+    summary = {"config": str(config.source), "out": str(ctx.out), "seconds": round(total, 1),
+               "stages": [o.to_dict() for o in outcomes]}  # fmt: skip
+    write_text_atomic(ctx.out / "pipeline_summary.json", json.dumps(summary, indent=2) + "\n")
+    _print_table(outcomes, total)
+    if args.until and args.until != "train":
+        return 0
+    print(
+        "\nWatch the results in the browser:\n"
+        f"  motionkit view {ctx.folder('walk')}      (retargeted walks, with the human skeleton)\n"
+        f"  motionkit view {ctx.folder('flight')}    (optimised flights, with contact forces)\n"
+        f"  motionkit view {ctx.folder('train')}     (the policy's evaluation rollouts)"
+    )
+    return 0
+
+
+def _print_table(outcomes: list, total: float) -> None:
+    print(f"\n{'stage':<10} {'status':<7} {'time':>7}  {'output':<34} made")
+    for o in outcomes:
+        when = f"{o.seconds:.0f} s" if o.status == "ran" else "-"
+        print(f"{o.stage:<10} {o.status:<7} {when:>7}  {o.output:<34} {o.made}")
+    print(f"total {total:.0f} s")
+
+
+def _warn_without_gpu() -> None:
+    import jax
+
+    if jax.default_backend() == "cpu":
+        print(
+            "warning: --full trains with the paper's GPU recipe (4,096 environments) but JAX "
+            "sees no GPU here; expect days instead of minutes",
+            file=sys.stderr,
+        )

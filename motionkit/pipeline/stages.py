@@ -1,0 +1,231 @@
+"""The pipeline's stages, in order: retarget, trajopt, jet_ident, datasets, train. Each
+computes its key from what it reads, then runs (or is found cached) through `run_cached`."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from motionkit.errors import PipelineError
+from motionkit.outputs import write_text_atomic
+from motionkit.pipeline.cache import (
+    Outcome,
+    digest,
+    file_digest,
+    run_cached,
+    source_digest,
+    versions,
+)
+from motionkit.pipeline.config import PipelineConfig
+
+JAX = ("jax", "jaxlib", "flax", "optax")
+
+
+@dataclass
+class Context:
+    config: PipelineConfig
+    out: Path
+    mocap_dir: Path | None = None
+    full: bool = False
+    force: bool = False
+    keys: dict[str, str] = field(default_factory=dict)  # stage -> key, as the stages run
+
+    @property
+    def records(self) -> Path:
+        return self.out / ".pipeline"
+
+    def folder(self, name: str) -> Path:
+        return self.out / name
+
+    def run(self, stage: str, parts: tuple, folder: str, work: Callable[[Path], str]) -> Outcome:
+        key = digest(stage, *parts)
+        self.keys[stage] = key
+        return run_cached(stage, key, self.folder(folder), self.records, work, self.force)
+
+
+def retarget(ctx: Context) -> Outcome:
+    from motionkit.retarget.batch import resolve_inputs
+    from motionkit.retarget.command import run_retarget
+    from motionkit.retarget.config import RetargetConfig
+
+    recipe = ctx.config.resolve(ctx.config.retarget.recipe)
+    config = RetargetConfig.from_toml(recipe)
+    if ctx.mocap_dir is not None:
+        if not ctx.mocap_dir.is_dir():
+            raise PipelineError(f"--mocap-dir {ctx.mocap_dir}: no such folder")
+        inputs = [str(ctx.mocap_dir)]
+    else:  # the recipe's clips: files beside it, or CMU ids fetched into the cache
+        inputs = [
+            str(recipe.parent / c) if (recipe.parent / c).exists() else c for c in config.clips
+        ]
+    clips = resolve_inputs(inputs)
+    config = replace(config, clips=())
+    files = [
+        (clip.name, file_digest(clip.path), file_digest(clip.asf) if clip.asf else None)
+        for clip in clips
+    ]
+    parts = (
+        files,
+        config.to_dict(),
+        source_digest(["retarget", "mocap", "dataset", "robot"]),
+        versions("placo", "pin"),
+    )
+
+    def work(folder: Path) -> str:
+        import os
+
+        jobs = ctx.config.retarget.jobs or os.cpu_count() or 1
+        results = run_retarget(clips, folder, config, jobs)
+        failed = [r for r in results if r.output is None]
+        if failed:
+            raise PipelineError(
+                f"retarget: {len(failed)} of {len(results)} clip(s) failed: "
+                + "; ".join(f"{r.name}: {r.error}" for r in failed)
+            )
+        frames = sum(r.frames for r in results)
+        return f"{len(results)} walking clips, {frames} frames"
+
+    return ctx.run("retarget", parts, "walk", work)
+
+
+def trajopt(ctx: Context) -> Outcome:
+    from motionkit.trajopt.command import run_one, summary_line
+    from motionkit.trajopt.config import TrajoptConfig
+
+    recipes = [ctx.config.resolve(r) for r in ctx.config.trajopt.recipes]
+    configs = {}
+    for recipe in recipes:
+        config = TrajoptConfig.from_toml(recipe)
+        configs[recipe.stem] = replace(config, solver=replace(config.solver, print_level=0))
+    replay = ctx.config.trajopt.replay
+    parts = (
+        {name: c.to_dict() for name, c in configs.items()},
+        replay,
+        source_digest(["trajopt", "dataset", "robot"]),
+        versions("casadi", "adam-robotics", "mujoco"),
+    )
+
+    def work(folder: Path) -> str:
+        solve_s = 0.0
+        for i, (name, config) in enumerate(configs.items(), 1):
+            print(f"flight {i}/{len(configs)}: {name} ({config.scenario.knots} knots)", flush=True)
+            metrics = run_one(config, folder, name, replay)
+            print(summary_line(name, metrics), flush=True)
+            solve_s += metrics["solve_s"]
+        return f"{len(configs)} flights ({', '.join(configs)}), IPOPT {solve_s:.0f} s, checked"
+
+    return ctx.run("trajopt", parts, "flight", work)
+
+
+def jet_ident(ctx: Context) -> Outcome:
+    from motionkit.jet_ident.config import JetIdentConfig
+
+    config = JetIdentConfig.from_toml(ctx.config.resolve(ctx.config.jet_ident.recipe))
+    parts = (config.to_dict(), source_digest(["jet_ident"]), versions(*JAX))
+
+    def work(folder: Path) -> str:
+        from motionkit.jet_ident.benchlog import write_log
+        from motionkit.jet_ident.command import fit_logs
+        from motionkit.jet_ident.fit import LSTM
+        from motionkit.jet_ident.synthetic import synthetic_run
+
+        logs = []
+        for seed in config.bench.train_seeds:
+            logs.append(folder / "logs" / f"p250_{seed}.csv")
+            write_log(logs[-1], synthetic_run(config.bench, seed).log)
+            print(f"simulated bench log {logs[-1].name}", flush=True)
+        report = fit_logs(logs, folder, config)
+        lstm = report["metrics"][LSTM]
+        return (
+            f"LSTM thrust model from {len(logs)} bench logs: free-run MAE {lstm['mae']:.2f} N, "
+            f"RMSE {lstm['rmse']:.2f} N"
+        )
+
+    return ctx.run("jet_ident", parts, "jet", work)
+
+
+def datasets(ctx: Context) -> Outcome:
+    parts = (ctx.keys["retarget"], ctx.keys["trajopt"], source_digest(["dataset"]))
+
+    def work(folder: Path) -> str:
+        from motionkit.dataset.collection import MotionDataset
+        from motionkit.dataset.validate import validate_clip
+        from motionkit.robot import ironcub
+
+        robot = ironcub()
+        dataset = MotionDataset([ctx.folder("walk"), ctx.folder("flight")])
+        rows = []
+        for clip in dataset.clips:
+            failed = [c for c in validate_clip(clip.path, robot) if not c.ok]
+            if failed:
+                raise PipelineError(
+                    f"datasets: {clip.path} fails "
+                    + "; ".join(f"{c.name}: {c.detail}" for c in failed)
+                )
+            rows.append(
+                {"clip": str(clip.path), "kind": clip.label, "frames": clip.frames,
+                 "duration_s": round(clip.duration, 3), "rate_hz": round(clip.rate, 3)}
+            )  # fmt: skip
+        seconds: dict[str, float] = {}
+        for row in rows:
+            seconds[row["kind"]] = seconds.get(row["kind"], 0.0) + row["duration_s"]
+        index = {"clips": rows, "seconds_per_kind": seconds, "robot_hash": robot.model_hash}
+        write_text_atomic(folder / "index.json", json.dumps(index, indent=2) + "\n")
+        kinds = ", ".join(f"{k} {v:.1f} s" for k, v in sorted(seconds.items()))
+        return f"{len(rows)} clips valid ({kinds})"
+
+    return ctx.run("datasets", parts, "datasets", work)
+
+
+def train(ctx: Context) -> Outcome:
+    from motionkit.train.config import PriorConfig, TrainConfig
+
+    stage = ctx.config.train
+    config = TrainConfig.from_toml(
+        ctx.config.resolve(stage.full_recipe if ctx.full else stage.recipe)
+    )
+    priors = {  # the recipe's weights, this run's clips
+        name: PriorConfig(
+            (str(ctx.folder(name)),), config.priors[name].weight if name in config.priors else 1.0
+        )
+        for name in ("walk", "flight")
+    }
+    env = config.env
+    if stage.jet == "lstm":
+        model = ctx.folder("jet") / "model.npz"
+        env = replace(env, jet="lstm", jet_model=str(model), initial_thrust=(0.0, 0.0))
+    config = replace(config, env=env, priors=priors)
+    parts = (
+        config.to_dict(),
+        [ctx.keys[s] for s in ("retarget", "trajopt", "jet_ident", "datasets")],
+        source_digest(["train", "dataset", "robot", "jet_ident"]),
+        versions(*JAX, "mujoco", "mujoco-mjx"),
+    )
+
+    def work(folder: Path) -> str:
+        from motionkit.robot import ironcub
+        from motionkit.train.command import enable_compile_cache, require_train_extra
+        from motionkit.train.run import train as train_policy
+
+        require_train_extra()
+        enable_compile_cache()
+        summary = train_policy(config, folder, ironcub(), progress=lambda s: print(s, flush=True))
+        last = summary["train"]
+        return (
+            f"{summary['iterations']} iterations, {summary['env_steps']:.0f} env steps; "
+            f"last reward {last['reward']:.3f} (task {last['task_reward']:.3f}, style "
+            f"{last['style_reward']:.3f})"
+        )
+
+    return ctx.run("train", parts, "train", work)
+
+
+STAGES: tuple[tuple[str, Callable[[Context], Outcome]], ...] = (
+    ("retarget", retarget),
+    ("trajopt", trajopt),
+    ("jet_ident", jet_ident),
+    ("datasets", datasets),
+    ("train", train),
+)

@@ -1,0 +1,168 @@
+"""`motionkit pipeline`: stage caching, recipe checks, and the whole chain on tiny recipes."""
+
+import json
+from pathlib import Path
+
+import pytest
+from mocap_synth import arms_down, mini_bvh
+
+from motionkit.cli import main
+from motionkit.errors import PipelineError
+from motionkit.pipeline.cache import digest, run_cached
+from motionkit.pipeline.config import PipelineConfig
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def test_run_cached_reruns_only_for_a_new_key(tmp_path: Path) -> None:
+    calls = []
+
+    def work(folder: Path) -> str:
+        calls.append(folder)
+        (folder / "made.txt").write_text(str(len(calls)))
+        return f"call {len(calls)}"
+
+    out, records = tmp_path / "stage", tmp_path / "records"
+    first = run_cached("s", "k1", out, records, work)
+    again = run_cached("s", "k1", out, records, work)
+    assert (first.status, again.status) == ("ran", "cached")
+    assert again.made == "call 1" and len(calls) == 1
+    changed = run_cached("s", "k2", out, records, work)
+    assert changed.status == "ran" and (out / "made.txt").read_text() == "2"
+    assert run_cached("s", "k2", out, records, work, force=True).status == "ran"
+    assert len(calls) == 3
+
+
+def test_failed_stage_leaves_nothing(tmp_path: Path) -> None:
+    out, records = tmp_path / "stage", tmp_path / "records"
+    run_cached("s", "k1", out, records, lambda folder: "ok")
+
+    def fail(folder: Path) -> str:
+        (folder / "half.txt").write_text("partial")
+        raise PipelineError("boom")
+
+    with pytest.raises(PipelineError, match="boom"):
+        run_cached("s", "k2", out, records, fail)
+    assert not out.exists() and not (records / "s.json").exists()
+
+
+def test_digest_depends_on_every_part() -> None:
+    assert digest("a", {"x": 1}) == digest("a", {"x": 1})
+    assert digest("a", {"x": 1}) != digest("a", {"x": 2})
+    assert digest("a", [1, 2]) != digest("a", [2, 1])
+
+
+def test_the_shipped_recipe_names_existing_files() -> None:
+    config = PipelineConfig.from_toml(REPO / "pipeline" / "tiny_cpu.toml")
+    assert len(config.trajopt.recipes) == 5 and config.train.jet == "lstm"
+
+
+def test_recipe_errors_name_the_key(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    recipe = tmp_path / "p.toml"
+    recipe.write_text('[trajopt]\nrecipes = ["missing.toml"]\n')
+    with pytest.raises(PipelineError, match=r"\[trajopt\] recipes: missing.toml does not exist"):
+        PipelineConfig.from_toml(recipe)
+    recipe.write_text("[trajectory]\n")
+    assert main(["pipeline", "--config", str(recipe), "--out", str(tmp_path / "o")]) == 2
+    assert "unknown tables ['trajectory']" in capsys.readouterr().err
+    assert main(["pipeline", "--config", str(tmp_path / "none.toml")]) == 2
+    assert "no such pipeline recipe" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
+TINY_JET = """
+[bench]
+duration_s = 60.0
+train_seeds = [1]
+[model]
+hidden = {hidden}
+[train]
+warmup = 10
+window = 60
+batch = 8
+max_steps = 20
+eval_every = 10
+"""
+
+TINY_TRAIN = """
+[env]
+episode_seconds = 0.5
+[ppo]
+num_envs = 4
+rollout_steps = 4
+epochs = 1
+minibatch_size = 16
+actor_hidden = [16]
+critic_hidden = [16]
+[amp]
+hidden = [16]
+batch_size = 16
+buffer_size = 64
+[run]
+iterations = 1
+eval_every = 0
+eval_rollouts = 1
+"""
+
+
+def tiny_recipes(folder: Path, hidden: int = 8) -> Path:
+    """A pipeline recipe with the smallest stage recipes that still run every stage."""
+    (folder / "retarget.toml").write_text('kind = "walk"\n')
+    takeoff = (REPO / "trajopt" / "takeoff.toml").read_text().replace("knots = 20", "knots = 12")
+    (folder / "takeoff.toml").write_text(takeoff)
+    (folder / "jet.toml").write_text(TINY_JET.format(hidden=hidden))
+    (folder / "train.toml").write_text(TINY_TRAIN)
+    recipe = folder / "pipeline.toml"
+    recipe.write_text(
+        '[retarget]\nrecipe = "retarget.toml"\njobs = 1\n'
+        '[trajopt]\nrecipes = ["takeoff.toml"]\nreplay = false\n'
+        '[jet_ident]\nrecipe = "jet.toml"\n'
+        '[train]\nrecipe = "train.toml"\nfull_recipe = "train.toml"\n'
+    )
+    return recipe
+
+
+def statuses(out: Path) -> dict[str, str]:
+    summary = json.loads((out / "pipeline_summary.json").read_text())
+    return {stage["stage"]: stage["status"] for stage in summary["stages"]}
+
+
+@pytest.mark.slow
+def test_pipeline_end_to_end_then_cached(tmp_path: Path, capsys) -> None:
+    pytest.importorskip("placo")
+    pytest.importorskip("casadi")
+    pytest.importorskip("mujoco.mjx")
+    mocap = tmp_path / "mocap"
+    mocap.mkdir()
+    (mocap / "walk.bvh").write_text(mini_bvh(arms_down(40)))
+    recipe, out = tiny_recipes(tmp_path), tmp_path / "out"
+    argv = ["pipeline", "--config", str(recipe), "--out", str(out), "--mocap-dir", str(mocap)]
+
+    assert main(argv) == 0
+    assert set(statuses(out).values()) == {"ran"}
+    assert [p.name for p in (out / "walk").glob("*.mcap")] == ["walk.mcap"]
+    assert (out / "flight" / "takeoff.mcap").is_file() and (out / "jet" / "model.npz").is_file()
+    index = json.loads((out / "datasets" / "index.json").read_text())
+    assert sorted(row["kind"] for row in index["clips"]) == ["takeoff", "walk"]
+    trained = json.loads((out / "train" / "summary.json").read_text())
+    assert trained["iterations"] == 1
+    config = (out / "train" / "config.toml").read_text()
+    assert 'jet = "lstm"' in config and str(out / "jet" / "model.npz") in config
+    assert str(out / "walk") in config and str(out / "flight") in config
+    text = capsys.readouterr().out
+    assert "motionkit view" in text and "stage" in text
+
+    stamp = (out / "train" / "summary.json").stat().st_mtime_ns
+    assert main(argv) == 0  # nothing changed: every stage cached
+    assert set(statuses(out).values()) == {"cached"}
+    assert (out / "train" / "summary.json").stat().st_mtime_ns == stamp
+
+    tiny_recipes(tmp_path, hidden=6)  # the jet recipe changed: only jet_ident runs again
+    assert main([*argv, "--until", "jet_ident"]) == 0
+    assert statuses(out) == {"retarget": "cached", "trajopt": "cached", "jet_ident": "ran"}
+
+    (mocap / "broken.bvh").write_text("HIERARCHY\nROOT Hips\n{\n")  # a malformed input
+    assert main([*argv, "--until", "retarget"]) == 2
+    err = capsys.readouterr().err
+    assert "broken.bvh" in err
+    assert not (out / "walk").exists() and not (out / ".pipeline" / "retarget.json").exists()
