@@ -6,7 +6,7 @@ write("copy.mcap", trajectory, robot)   # atomic; /motion, /tf, metadata, URDF a
 """
 
 from motionkit.dataset.amp import AmpPairs, amp_features, amp_pairs, feature_names, resample
-from motionkit.dataset.clip import read, read_metadata, write
+from motionkit.dataset.clip import corner_names, read, read_metadata, write
 from motionkit.dataset.collection import MotionDataset
 from motionkit.dataset.trajectory import Metadata, Source, Trajectory
 
@@ -18,6 +18,7 @@ __all__ = [
     "Trajectory",
     "amp_features",
     "amp_pairs",
+    "corner_names",
     "feature_names",
     "read",
     "read_metadata",

@@ -70,7 +70,8 @@ def amp_features(trajectory: Trajectory, robot: Robot, *, heading_free: bool = T
 
 def resample(trajectory: Trajectory, rate: float) -> Trajectory:
     """The trajectory at `rate` Hz from its first frame: linear interpolation for positions,
-    velocities and thrust, slerp for the base orientation, the nearest frame for contacts."""
+    velocities, thrust, contact forces and landmarks, slerp for the base orientation, the nearest
+    frame for contacts."""
     if rate <= 0:
         raise DatasetError(f"resampling rate must be positive, got {rate}")
     if trajectory.frames < 2:
@@ -96,7 +97,8 @@ def resample(trajectory: Trajectory, rate: float) -> Trajectory:
 
 def _interpolate(time: np.ndarray, values: np.ndarray, new_time: np.ndarray) -> np.ndarray:
     index = np.clip(np.searchsorted(time, new_time, "right") - 1, 0, len(time) - 2)
-    weight = ((new_time - time[index]) / (time[index + 1] - time[index]))[:, None]
+    weight = (new_time - time[index]) / (time[index + 1] - time[index])
+    weight = weight.reshape(-1, *[1] * (values.ndim - 1))  # over every axis of a frame
     return (1 - weight) * values[index] + weight * values[index + 1]
 
 

@@ -6,7 +6,9 @@ File layout (MCAP, zstd-compressed chunks, indexed, with CRCs):
 - /tf: `foxglove.FrameTransforms` at `tf_rate` Hz: world -> root link and every joint of the
   robot, so that Foxglove shows the robot move;
 - metadata record `motionkit`: robot, model hash, names, rate, kind, source, generator, config
-  and metrics (string map; nested values as JSON);
+  and metrics (string map; nested values as JSON); the optional arrays' names and flags
+  (corner_names, landmark_names, landmark_parents, has_contact_forces, has_landmarks: absent in
+  older files, which read as clips without them);
 - attachment `<robot>.urdf`: the robot description the motion was made for.
 """
 
@@ -35,7 +37,15 @@ from motionkit.dataset.messages import (
     motion_schema,
     tf_schema,
 )
-from motionkit.dataset.trajectory import ARRAY_FIELDS, Metadata, Source, Trajectory
+from motionkit.dataset.trajectory import (
+    ARRAY_FIELDS,
+    NAME_FIELDS,
+    OPTIONAL,
+    Metadata,
+    Source,
+    Trajectory,
+    frame_shape,
+)
 from motionkit.errors import DatasetError
 from motionkit.outputs import atomic_output
 from motionkit.robot import Robot
@@ -63,6 +73,11 @@ def write(path: Path | str, trajectory: Trajectory, robot: Robot, *, tf_rate: fl
     return path
 
 
+def corner_names(robot: Robot) -> tuple[str, ...]:
+    """The robot's sole corners, feet in spec order: the rows of `contact_forces`."""
+    return tuple(corner for foot in robot.spec.feet for corner in foot.corners)
+
+
 def check_against_robot(trajectory: Trajectory, robot: Robot) -> None:
     meta = trajectory.metadata
     expected = {
@@ -70,6 +85,8 @@ def check_against_robot(trajectory: Trajectory, robot: Robot) -> None:
         "jet_names": tuple(jet.name for jet in robot.spec.jets),
         "foot_names": tuple(foot.side for foot in robot.spec.feet),
     }
+    if trajectory.contact_forces is not None:
+        expected["corner_names"] = corner_names(robot)
     for name, names in expected.items():
         if getattr(trajectory, name) != names:
             raise DatasetError(
@@ -91,11 +108,7 @@ def _write_mcap(stream: IO[bytes], trajectory: Trajectory, robot: Robot, tf_rate
         enable_data_crcs=True,
     )
     writer.start(profile="", library=f"motionkit {__version__}")
-    names = {
-        "joint_names": json.dumps(trajectory.joint_names),
-        "jet_names": json.dumps(trajectory.jet_names),
-        "foot_names": json.dumps(trajectory.foot_names),
-    }
+    names = {name: json.dumps(getattr(trajectory, name)) for name in NAME_FIELDS}
     motion = writer.register_channel(
         MOTION_TOPIC,
         "protobuf",
@@ -163,6 +176,11 @@ def _metadata_record(trajectory: Trajectory) -> dict[str, str]:
         "rate": repr(trajectory.rate),
         "duration": repr(trajectory.duration),
         "has_throttle": json.dumps(trajectory.throttle is not None),
+        "corner_names": json.dumps(trajectory.corner_names),
+        "has_contact_forces": json.dumps(trajectory.contact_forces is not None),
+        "landmark_names": json.dumps(trajectory.landmark_names),
+        "landmark_parents": json.dumps(trajectory.landmark_parents),
+        "has_landmarks": json.dumps(trajectory.landmarks is not None),
         "source": json.dumps(asdict(meta.source)),
         "config": json.dumps(meta.config, sort_keys=True),
         "metrics": json.dumps(meta.metrics, sort_keys=True),
@@ -322,20 +340,9 @@ def _read(
 ) -> Trajectory:
     index = _index(stream, path, chunk_crcs)
     metadata = _metadata(index.record, path)
-    names = {
-        k: tuple(json.loads(index.record[k])) for k in ("joint_names", "jet_names", "foot_names")
-    }
-    widths = {
-        "base_position": 3,
-        "base_orientation": 4,
-        "joint_positions": len(names["joint_names"]),
-        "joint_velocities": len(names["joint_names"]),
-        "base_linear_velocity": 3,
-        "base_angular_velocity": 3,
-        "thrust": len(names["jet_names"]),
-        "throttle": len(names["jet_names"]),
-        "contacts": len(names["foot_names"]),
-    }
+    names = {k: tuple(_optional_json(index.record, k, [], path)) for k in NAME_FIELDS}
+    parents = tuple(_optional_json(index.record, "landmark_parents", [], path))
+    shapes = {name: frame_shape(name, names) for name in ARRAY_FIELDS}
     lookback = float(index.channel.metadata.get("max_block_seconds", "0"))
     low = None if start is None else max(0, _ns(start - lookback) - 1)
     high = None if end is None else _ns(end) + 1
@@ -347,25 +354,37 @@ def _read(
             values = arrays.get(name)
             if values is None:
                 continue
-            width = widths.get(name, 1)
-            if values.size != count * width:
+            shape = (count, *shapes[name])
+            if values.size != np.prod(shape):
                 raise DatasetError(
                     f"{path}: /motion message at {log_time / _NS:.3f} s has {values.size} "
-                    f"values of {name}, expected {count} frames x {width}"
+                    f"values of {name}, expected {count} frames x {shapes[name] or 1}"
                 )
-            parts[name].append(values.reshape(count, width) if name != "time" else values)
+            parts[name].append(values.reshape(shape))
     if not parts["time"]:
         raise DatasetError(f"{path}: no /motion frames in the requested range")
     merged = {k: np.concatenate(v) for k, v in parts.items() if v}
     if "contacts" in merged:
         merged["contacts"] = merged["contacts"].astype(bool)
     for name in ARRAY_FIELDS:
-        if name in merged or name == "throttle":
+        if name in merged:
             continue
-        if widths[name] != 0:  # only zero-width arrays (no jets, no feet) may be absent
+        if name in OPTIONAL and not _optional_json(index.record, f"has_{name}", False, path):
+            continue  # an optional array the clip does not have
+        if np.prod(shapes[name]) != 0:  # only zero-width arrays (no jets, no feet) may be absent
             raise DatasetError(f"{path}: /motion messages lack {name}")
-        merged[name] = np.zeros((len(merged["time"]), 0))
-    return Trajectory(**merged, **names, metadata=metadata)
+        merged[name] = np.zeros((len(merged["time"]), *shapes[name]))
+    return Trajectory(**merged, **names, landmark_parents=parents, metadata=metadata)
+
+
+def _optional_json(record: dict[str, str], key: str, default: Any, path: Path) -> Any:
+    """A JSON value of the metadata record, `default` when the key is absent (older files)."""
+    if key not in record:
+        return default
+    try:
+        return json.loads(record[key])
+    except json.JSONDecodeError as exc:
+        raise DatasetError(f"{path}: metadata '{key}' is not valid JSON ({exc})") from exc
 
 
 def _messages(

@@ -27,6 +27,9 @@ def to_npz_bytes(trajectory: Trajectory) -> bytes:
         "joint_names": np.array(trajectory.joint_names),
         "jet_names": np.array(trajectory.jet_names),
         "foot_names": np.array(trajectory.foot_names),
+        "corner_names": np.array(trajectory.corner_names, dtype=str),
+        "landmark_names": np.array(trajectory.landmark_names, dtype=str),
+        "landmark_parents": np.array(trajectory.landmark_parents, dtype=int),
         "metadata": np.array(json.dumps(asdict(trajectory.metadata), sort_keys=True)),
     }
     buffer = io.BytesIO()

@@ -6,6 +6,7 @@ little-endian arrays), which is what makes reading an hour of motion take a frac
 The tests check these codecs against the protobuf library.
 
 A MotionChunk holds consecutive frames; every array is frame-major (frame 0's values first).
+Field numbers never change; new fields get new numbers, so that older files still read.
 """
 
 from __future__ import annotations
@@ -44,6 +45,9 @@ CHUNK_FIELDS = (
     ChunkField("thrust", 8, _F.TYPE_FLOAT, "<f4"),  # N per jet
     ChunkField("throttle", 9, _F.TYPE_FLOAT, "<f4"),  # % per jet; empty when absent
     ChunkField("contacts", 10, _F.TYPE_BOOL, "u1"),  # per foot
+    # optional, empty when absent; frame-major, then corner/landmark-major, then x, y, z
+    ChunkField("contact_forces", 11, _F.TYPE_FLOAT, "<f4"),  # N per sole corner, world
+    ChunkField("landmarks", 12, _F.TYPE_FLOAT, "<f4"),  # m per skeleton landmark, world
 )
 _BY_NUMBER = {f.number: f for f in CHUNK_FIELDS}
 

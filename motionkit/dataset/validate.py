@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from motionkit.dataset.clip import read
+from motionkit.dataset.clip import corner_names, read
 from motionkit.dataset.trajectory import Trajectory
 from motionkit.errors import MotionkitError
 from motionkit.robot import Robot
@@ -140,6 +140,8 @@ def check_robot(trajectory: Trajectory, robot: Robot) -> list[Check]:
     thrust = trajectory.thrust.astype(float)
     over = np.maximum(-thrust, thrust - t_max)
     checks.append(_limit_check("thrust within 0..T_max", over, 1e-3, "N", trajectory, "jet_names"))
+    if trajectory.contact_forces is not None:
+        checks.append(check_corners(trajectory, robot))
     if trajectory.throttle is not None:
         throttle = trajectory.throttle.astype(float)
         over = np.maximum(-throttle, throttle - 100.0)
@@ -147,6 +149,15 @@ def check_robot(trajectory: Trajectory, robot: Robot) -> list[Check]:
             _limit_check("throttle within 0..100 %", over, 1e-3, "%", trajectory, "jet_names")
         )
     return checks
+
+
+def check_corners(trajectory: Trajectory, robot: Robot) -> Check:
+    """The rows of contact_forces are the robot's sole corners, in spec order."""
+    expected = corner_names(robot)
+    if trajectory.corner_names == expected:
+        return Check(f"sole corners of {robot.name}", True, f"{len(expected)} corners")
+    detail = f"{list(trajectory.corner_names)}, expected {list(expected)}"
+    return Check(f"sole corners of {robot.name}", False, detail)
 
 
 def _limit_check(

@@ -8,6 +8,9 @@ Names compare case-, underscore- and namespace-insensitively ("mixamorig:Left_Up
 Landmarks a skeleton may lack are approximated from neighbours:
 pelvis = hip midpoint; neck = shoulder midpoint; chest = spine-neck midpoint (without a spine:
 2/3 of the way pelvis -> neck); spine = pelvis-chest midpoint (without a chest: 1/3 pelvis -> neck).
+
+PARENTS joins the landmarks into a tree (to draw the skeleton); `skeleton(names)` gives the parent
+indices of a subset.
 """
 
 from __future__ import annotations
@@ -43,6 +46,28 @@ LANDMARKS: tuple[str, ...] = (
     "r_elbow",
     "r_wrist",
 )
+# The landmarks as a tree (parents before children): legs from the pelvis, arms from the neck.
+PARENTS: dict[str, str | None] = {
+    "pelvis": None,
+    "l_hip": "pelvis",
+    "l_knee": "l_hip",
+    "l_ankle": "l_knee",
+    "l_toe": "l_ankle",
+    "r_hip": "pelvis",
+    "r_knee": "r_hip",
+    "r_ankle": "r_knee",
+    "r_toe": "r_ankle",
+    "spine": "pelvis",
+    "chest": "spine",
+    "neck": "chest",
+    "head": "neck",
+    "l_shoulder": "neck",
+    "l_elbow": "l_shoulder",
+    "l_wrist": "l_elbow",
+    "r_shoulder": "neck",
+    "r_elbow": "r_shoulder",
+    "r_wrist": "r_elbow",
+}
 APPROXIMATED = ("pelvis", "spine", "chest", "neck")
 REQUIRED = tuple(k for k in LANDMARKS if k not in APPROXIMATED)
 
@@ -242,6 +267,20 @@ def _no_match(names: Sequence[str], guess: Mapping[str, str], source: Path) -> s
         f"Write a mapping TOML naming the joint for each landmark and pass it as {_TEMPLATE_HINT}"
         " (keys found already and optional ones may be left out):\n" + mapping_template(guess)
     )
+
+
+def skeleton(names: Sequence[str]) -> tuple[tuple[str, ...], tuple[int, ...]]:
+    """The known landmarks among `names`, in LANDMARKS order, and each one's parent index: the
+    nearest ancestor present in PARENTS' tree, -1 for none (a root)."""
+    present = [name for name in LANDMARKS if name in names]
+    index = {name: i for i, name in enumerate(present)}
+    parents = []
+    for name in present:
+        parent = PARENTS[name]
+        while parent is not None and parent not in index:
+            parent = PARENTS[parent]
+        parents.append(-1 if parent is None else index[parent])
+    return tuple(present), tuple(parents)
 
 
 def landmark_positions(

@@ -10,6 +10,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from motionkit.dataset import Metadata, Source, Trajectory
+from motionkit.mocap.naming import skeleton
 from motionkit.retarget.config import RetargetConfig
 from motionkit.retarget.ik import solve_motion
 from motionkit.retarget.metrics import compute_metrics
@@ -43,7 +44,9 @@ def retarget(
     progress: Callable[[int], None] | None = None,
 ) -> tuple[Trajectory, Timings]:
     """The robot motion that follows human landmarks (world positions [m], Z up, at `rate` Hz),
-    with its quality metrics in the metadata."""
+    with its quality metrics in the metadata, and the human (low-passed, scaled to the robot:
+    what it was retargeted to) as the clip's landmarks; landmarks outside
+    motionkit.mocap.LANDMARKS are not written."""
     start = clock.perf_counter()
     points = robot_points(robot, config.points)
     targets = make_targets(
@@ -58,6 +61,7 @@ def retarget(
 
     time = targets.time
     quats = from_rotation(Rotation.from_matrix(base[:, :3, :3]))
+    names, parents = skeleton(list(targets.human))
     trajectory = Trajectory(
         time=time,
         base_position=base[:, :3, 3],
@@ -71,6 +75,9 @@ def retarget(
         contacts=targets.contacts,
         jet_names=tuple(jet.name for jet in robot.spec.jets),
         foot_names=tuple(foot.side for foot in robot.spec.feet),
+        landmark_names=names,
+        landmark_parents=parents,
+        landmarks=np.stack([targets.human[name] for name in names], axis=1),
         metadata=Metadata(
             robot=robot.name,
             robot_hash=robot.model_hash,

@@ -1,10 +1,12 @@
 """From human landmarks to robot IK targets: scaling, ground, contacts, locked feet.
 
-The human is rebuilt with the robot's segment lengths: the pelvis follows the human's hip
-midpoint scaled by the leg-length ratio; knees and ankles lie along the human's thigh and shank
-directions at the robot's thigh and shank lengths. During a detected contact the sole target is
-flat on the ground (z = 0) and locked where the contact began; around contacts the target blends
-between the locked and the free pose over `release_time`.
+The human is scaled by the leg-length ratio (about the world origin) and lifted so that its
+ankles in contact are at the robot's ankle height (`Targets.human`, written into the clip as its
+landmarks); then rebuilt with the robot's segment lengths: the pelvis follows the scaled hip
+midpoint; knees and ankles lie along the human's thigh and shank directions at the robot's thigh
+and shank lengths. During a detected contact the sole target is flat on the ground (z = 0) and
+locked where the contact began; around contacts the target blends between the locked and the free
+pose over `release_time`.
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ class Targets:
     upper_arms: Array  # (T, 2, 3) unit directions shoulder -> elbow
     upper_arm_length: Array  # (2,) robot shoulder-elbow distance [m]
     source_slide: Array  # (n,) human foot horizontal speed in contact frames [m/s]
+    human: dict[str, Array]  # (T, 3) each: the low-passed landmarks, scaled and lifted like root
 
 
 def _unit(vectors: Array) -> Array:
@@ -172,7 +175,8 @@ def make_targets(
     )
     human_ankle = float(np.median(ankle_heights)) - ground if ankle_heights.size else 0.0
     lift = geometry.ankle_height - scale * (ground + human_ankle)
-    hips_middle = scale * 0.5 * (h["l_hip"] + h["r_hip"]) + [0.0, 0.0, lift]
+    human = {name: scale * values + [0.0, 0.0, lift] for name, values in h.items()}
+    hips_middle = 0.5 * (human["l_hip"] + human["r_hip"])
     root = np.broadcast_to(np.eye(4), (frames, 4, 4)).copy()
     root[:, :3, :3] = root_rotation
     root[:, :3, 3] = hips_middle - root_rotation @ geometry.hip.mean(axis=0)
@@ -215,6 +219,7 @@ def make_targets(
         upper_arms=arms,
         upper_arm_length=geometry.upper_arm,
         source_slide=speed[contacts],
+        human=human,
     )
 
 

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Slerp
 
-from motionkit.dataset import Metadata, Source, Trajectory, write
+from motionkit.dataset import Metadata, Source, Trajectory, corner_names, write
 from motionkit.outputs import atomic_output, write_text_atomic
 from motionkit.robot import Robot
 from motionkit.robot.geometry import from_rotation, to_rotation
@@ -20,7 +20,8 @@ CONTACT_FORCE = 1.0  # N: a foot is in contact when its corners carry more than 
 
 
 def to_trajectory(solution: Solution, robot: Robot, metrics: dict[str, Any]) -> Trajectory:
-    """The knots resampled to `config.rate` (linear; quaternions by slerp)."""
+    """The knots resampled to `config.rate` (linear; quaternions by slerp; contacts held from
+    the knot before), with the planned force of every sole corner [N, world frame]."""
     knots, config = solution.knots, solution.config
     time = solution.time
     frames = int(np.floor(time[-1] * config.rate + 1e-9)) + 1
@@ -39,6 +40,7 @@ def to_trajectory(solution: Solution, robot: Robot, metrics: dict[str, Any]) -> 
     loaded = normal.sum(axis=2) > CONTACT_FORCE
     contact_index = np.clip(np.searchsorted(time, out_time, "right") - 1, 0, len(time) - 1)
     throttle = lerp("throttle") if config.jets.model == "p250" else None
+    corners = corner_names(robot)  # the knots' corner order (trajopt.kinematics)
     return Trajectory(
         time=out_time,
         base_position=lerp("base_position"),
@@ -53,6 +55,8 @@ def to_trajectory(solution: Solution, robot: Robot, metrics: dict[str, Any]) -> 
         contacts=loaded[contact_index],
         jet_names=tuple(jet.name for jet in robot.spec.jets),
         foot_names=tuple(foot.side for foot in robot.spec.feet),
+        corner_names=corners,
+        contact_forces=lerp("forces").reshape(frames, len(corners), 3),
         metadata=Metadata(
             robot=robot.name,
             robot_hash=robot.model_hash,

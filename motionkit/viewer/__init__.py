@@ -5,7 +5,8 @@
     app = ViewerApp(robot, resolve_clips("walk.mcap"))   # server on 127.0.0.1, print(app.url)
 
 sources: PATH -> checked clips; playback: the timeline; posing: link poses per frame; meshes: the
-robot's visuals (cached); scene: robot and overlays in viser; app: the server and its page.
+robot's visuals (cached); scene: robot and overlays in viser; skeleton: a retargeted clip's human
+beside the robot; app: the server and its page.
 Importing `motionkit.viewer.app` needs the [viewer] extra (viser); the rest needs only numpy.
 """
 

@@ -18,13 +18,14 @@ import numpy as np
 import viser
 import viser.uplot
 
-from motionkit.dataset import Trajectory
+from motionkit.dataset import Trajectory, corner_names
 from motionkit.errors import ViewerError
 from motionkit.robot import Robot
 from motionkit.robot.geometry import Array
 from motionkit.viewer.meshes import LinkMesh, robot_meshes
 from motionkit.viewer.playback import Playback
-from motionkit.viewer.scene import FrameState, RobotScene
+from motionkit.viewer.scene import FORCE_SCALE, FrameState, RobotScene
+from motionkit.viewer.skeleton import SKELETON_OFFSET, SkeletonOverlay, side_offset
 from motionkit.viewer.sources import (
     ClipInfo,
     check_robot,
@@ -56,8 +57,10 @@ class ViewerApp:
         meshes: list[LinkMesh] | None = None,
         play: bool = False,
         verbose: bool = False,
+        skeleton_offset: float = SKELETON_OFFSET,
     ) -> None:
         self.robot = robot
+        self.skeleton_offset = skeleton_offset  # m, the human skeleton to the robot's left
         self.clips = list(clips)
         warnings = [check_robot(clip, robot) for clip in self.clips]  # raises on a misfit
         self.motion: Trajectory | None = load_motion(self.clips[0]) if self.clips else None
@@ -80,6 +83,8 @@ class ViewerApp:
         self.playback: Playback | None = None
         self.rate = 0.0  # Hz, of the clip shown
         self.forces: Array | None = None
+        self.skeleton: SkeletonOverlay | None = None
+        self._description = ""
         self.index = 0
         if self.motion is not None:
             self._build_player(play)
@@ -164,6 +169,8 @@ class ViewerApp:
         with gui.add_folder("Show"):
             self.show_robot = gui.add_checkbox("robot", True)
             self.show_waypoints = gui.add_checkbox("waypoints", True)
+            self.show_skeleton = gui.add_checkbox("human skeleton", True)
+            self.show_forces = gui.add_checkbox("contact forces", True)
         self.plots = gui.add_folder("Plots", expand_by_default=False)
 
         @self.picker.on_update
@@ -203,6 +210,21 @@ class ViewerApp:
             for handle in self._waypoints:
                 handle.visible = self.show_waypoints.value
 
+        @self.show_skeleton.on_update
+        def _(_: viser.GuiEvent) -> None:
+            with self._lock:
+                if self.skeleton is not None:
+                    self.skeleton.visible = self.show_skeleton.value
+                self._show(self._player().frame)
+                self._describe_overlays()
+
+        @self.show_forces.on_update
+        def _(_: viser.GuiEvent) -> None:
+            with self._lock:
+                self.scene.show_forces = self.show_forces.value
+                self._show(self._player().frame)
+                self._describe_overlays()
+
         assert self.motion is not None
         self._set_clip(self.motion)
         position = self.motion.base_position[0].astype(float)
@@ -213,8 +235,9 @@ class ViewerApp:
 
     def _set_clip(self, motion: Trajectory) -> None:
         clip = self.clips[self.index]
-        corners = sum(len(foot.corners) for foot in self.robot.spec.feet)
-        self.forces = contact_forces(motion, corners)
+        self.forces = contact_forces(motion, corner_names(self.robot))
+        self.show_forces.disabled = self.forces is None
+        self._set_skeleton(motion)
         self.playback = Playback(motion.time, float(self.speed.value), self.loop.value)
         self.rate = motion.rate
         step = 1.0 / self.rate if self.rate > 0 else 0.01
@@ -223,10 +246,45 @@ class ViewerApp:
         self.slider.value = float(motion.time[0])
         notes = (self.warnings[self.index], *self.warnings[len(self.clips) :])
         warning = "; ".join(w for w in notes if w)
-        self.info.content = describe(clip, warning)
+        self._description = describe(clip, warning)
+        self._describe_overlays()
         self._draw_waypoints(waypoints(clip))
         self._draw_plots(motion)
         self._show(0)
+
+    def _set_skeleton(self, motion: Trajectory) -> None:
+        """The clip's human skeleton beside the robot (none without landmarks)."""
+        if self.skeleton is not None:
+            self.skeleton.remove()
+            self.skeleton = None
+        self.show_skeleton.disabled = motion.landmarks is None
+        if motion.landmarks is None:
+            return
+        offset = side_offset(
+            self.robot.spec.forward, motion.base_orientation[0], self.skeleton_offset
+        )
+        self.skeleton = SkeletonOverlay(
+            self.server, motion.landmark_parents, offset, self.show_skeleton.value
+        )
+
+    def _describe_overlays(self) -> None:
+        """The clip's description, and which of its skeleton and contact forces are shown."""
+        motion = self.motion
+        assert motion is not None
+        lines = []
+        if motion.landmarks is not None:
+            state = "shown" if self.show_skeleton.value else "hidden"
+            lines.append(
+                f"human skeleton ({len(motion.landmark_names)} landmarks, scaled to the robot) "
+                f"{state}, {self.skeleton_offset:g} m to the robot's left"
+            )
+        if self.forces is not None:
+            state = "shown" if self.show_forces.value else "hidden"
+            lines.append(
+                f"planned contact forces {state}: an arrow per sole corner, "
+                f"{FORCE_SCALE:g} m per body weight"
+            )
+        self.info.content = "\n\n".join([self._description, *lines])
 
     def _draw_waypoints(self, points: Array) -> None:
         for handle in self._waypoints:
@@ -283,7 +341,11 @@ class ViewerApp:
             motion.contacts[frame],
             None if self.forces is None else self.forces[frame],
         )
-        self.scene.show(state)
+        with self.server.atomic():
+            self.scene.show(state)
+            if self.skeleton is not None and self.skeleton.visible:
+                assert motion.landmarks is not None
+                self.skeleton.show(motion.landmarks[frame])
 
     # -- robot alone ---------------------------------------------------------------------------
     def _build_robot_only(self) -> None:

@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 from typing import Any
 
 from motionkit.errors import ViewerError
+from motionkit.viewer.skeleton import SKELETON_OFFSET
 
 VIEW_EPILOG = """\
 PATH is an MCAP clip, a folder of clips or a training run (searched recursively for *.mcap,
@@ -16,9 +18,10 @@ before the server starts; a missing or corrupt file is an error naming it. The s
 
 The page plays the motion (timeline, play/pause, speed, loop, clip picker), draws thrust arrows
 (length proportional to T/T_max, along the exhaust), sole corners green in contact, the centre of
-mass, the waypoints of rollouts and the planned contact forces when the clip has them, and plots
-joint angles and thrust. --robot shows the model alone with a slider per joint and the named
-frames (soles, sole corners, jets, elbows)."""
+mass, the waypoints of rollouts, the planned contact forces of optimised flights (an arrow per sole
+corner, 0.5 m per body weight) and the scaled human skeleton of retargeted clips (beside the robot,
+--skeleton-offset metres to its left), and plots joint angles and thrust. --robot shows the
+model alone with a slider per joint and the named frames (soles, sole corners, jets, elbows)."""
 
 
 def add_commands(stages: argparse._SubParsersAction, robot_source: Any) -> None:
@@ -33,6 +36,14 @@ def add_commands(stages: argparse._SubParsersAction, robot_source: Any) -> None:
     view.add_argument("--robot", action="store_true", help="the robot model alone")
     view.add_argument("--port", type=int, default=8080, help="port on 127.0.0.1 (default 8080)")
     view.add_argument("--play", action="store_true", help="start playing at once")
+    view.add_argument(
+        "--skeleton-offset",
+        type=float,
+        default=SKELETON_OFFSET,
+        metavar="METRES",
+        help="draw a retargeted clip's human skeleton this far to the robot's left (default "
+        f"{SKELETON_OFFSET:g}; 0 overlays it on the robot)",
+    )
     robot_source(view)
     view.set_defaults(handler=_view)
 
@@ -42,6 +53,10 @@ def _view(args: argparse.Namespace) -> int:
         raise ViewerError("give a clip, folder or run (PATH), or --robot, but not both")
     if not 0 < args.port < 65536:
         raise ViewerError(f"--port must be 1 to 65535, got {args.port}")
+    if not math.isfinite(args.skeleton_offset):
+        raise ViewerError(
+            f"--skeleton-offset must be a finite distance [m], got {args.skeleton_offset}"
+        )
     try:
         from motionkit.viewer.app import ViewerApp
     except ImportError as exc:
@@ -54,7 +69,9 @@ def _view(args: argparse.Namespace) -> int:
 
     clips = resolve_clips(args.path) if args.path is not None else []  # before the robot: fast
     robot = load_robot(args.urdf, args.spec)
-    app = ViewerApp(robot, clips, port=args.port, play=args.play)
+    app = ViewerApp(
+        robot, clips, port=args.port, play=args.play, skeleton_offset=args.skeleton_offset
+    )
     shown = f"{len(clips)} clip(s) from {args.path}" if clips else f"robot {robot.name}"
     print(f"motionkit view: {shown} at {app.url} (Ctrl-C to stop)", flush=True)
     try:

@@ -2,7 +2,8 @@
 
 Overlays: thrust arrows out of the nozzles (along the exhaust, opposite to the force on the robot,
 length THRUST_LENGTH x T/T_max), sole corners green in contact and grey off it, the centre of
-mass with its ground projection, and the planned contact forces when a clip has them.
+mass with its ground projection, and the planned contact forces when a clip has them (an arrow
+per sole corner from the corner, FORCE_SCALE m per body weight, none below FORCE_THRESHOLD).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from motionkit.viewer.posing import LinkPoser, matrices_to_quats
 
 THRUST_LENGTH = 0.6  # m, arrow length at T_max
 FORCE_SCALE = 0.5  # m per body weight of contact force
+FORCE_THRESHOLD = 1e-3  # body weights: smaller forces draw no arrow
 CONTACT_COLOR = np.array([40, 200, 80], np.uint8)
 FREE_COLOR = np.array([150, 150, 150], np.uint8)
 THRUST_COLOR = (255, 120, 20)
@@ -86,6 +88,7 @@ class RobotScene:
         self.forces = server.scene.add_arrows(
             "/overlays/contact_forces", np.zeros((1, 2, 3), np.float32), FORCE_COLOR, visible=False
         )
+        self.show_forces = True  # draw contact forces when the frame has them
         self.poses: Array = np.empty((0, 4, 4))
         self.state: FrameState | None = None
 
@@ -119,7 +122,8 @@ class RobotScene:
         self.com.position = com
         self.com_line.points = np.array([[com, [com[0], com[1], 0.0]]], np.float32)
         self.thrust.visible = self._thrust_arrows(state, poses) if self.root.visible else False
-        self.forces.visible = self._force_arrows(state, corners) if self.root.visible else False
+        drawn = self.root.visible and self.show_forces
+        self.forces.visible = self._force_arrows(state, corners) if drawn else False
 
     def _thrust_arrows(self, state: FrameState, poses: Array) -> bool:
         if state.thrust is None or not len(state.thrust):
@@ -140,7 +144,7 @@ class RobotScene:
             return False
         forces = np.asarray(state.contact_forces, float)
         weight = self.poser.total_mass * 9.81
-        on = np.linalg.norm(forces, axis=1) > 1e-3 * weight
+        on = np.linalg.norm(forces, axis=1) > FORCE_THRESHOLD * weight
         if not on.any():
             return False
         end = corners[on] + forces[on] * (FORCE_SCALE / weight)

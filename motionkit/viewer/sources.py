@@ -5,20 +5,23 @@ clip is read only when it is shown, and a whole read checks the file's CRCs.
 
 Optional extras a clip may carry, drawn when present:
 - waypoints: metadata key "waypoints" (the config or metrics dict), a list of [x, y, z] [m];
-- contact forces: a `contact_forces` array on the Trajectory, (frames, corners, 3) [N] in the
-  world frame, corners in spec order (every foot's sole corners, feet in spec order).
+- contact forces (trajopt clips): `Trajectory.contact_forces`, (frames, corners, 3) [N] in the
+  world frame, one row per name of `corner_names` (the robot's sole corners);
+- landmarks (retargeted clips): `Trajectory.landmarks`, (frames, L, 3) [m] in the world frame,
+  with `landmark_parents`: the scaled human skeleton.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from motionkit.dataset import Metadata, Trajectory, read, read_metadata
+from motionkit.dataset import Metadata, Trajectory, corner_names, read, read_metadata
 from motionkit.errors import DatasetError, ViewerError
 from motionkit.robot import Robot
 
@@ -84,6 +87,16 @@ def check_robot(clip: ClipInfo, robot: Robot) -> str:
             f"{clip.path}: the clip's joints {list(clip.joint_names)} are not those of robot "
             f"'{robot.name}' {list(robot.joint_names)}; pass its robot with --urdf/--spec"
         )
+    try:
+        corners = json.loads(clip.record.get("corner_names", "[]"))  # absent in older clips
+    except json.JSONDecodeError as exc:
+        raise ViewerError(f"{clip.path}: metadata 'corner_names' is not valid JSON") from exc
+    unknown = sorted(set(corners) - set(corner_names(robot)))
+    if unknown:
+        raise ViewerError(
+            f"{clip.path}: the clip's contact forces act at corners {unknown} that robot "
+            f"'{robot.name}' lacks (its sole corners: {list(corner_names(robot))})"
+        )
     if (clip.metadata.robot, clip.metadata.robot_hash) != (robot.name, robot.model_hash):
         return (
             f"{clip.path.name} was made for {clip.metadata.robot} model "
@@ -125,19 +138,17 @@ def waypoints(clip: ClipInfo) -> np.ndarray:
     return points
 
 
-def contact_forces(trajectory: Trajectory, corners: int) -> np.ndarray | None:
-    """The clip's planned contact forces (frames, corners, 3) [N], or None when it has none."""
-    forces = getattr(trajectory, "contact_forces", None)
-    if forces is None:
+def contact_forces(trajectory: Trajectory, corners: Sequence[str]) -> np.ndarray | None:
+    """The clip's planned contact forces (frames, len(corners), 3) [N] in the order of `corners`
+    (zero at corners the clip has no force for), or None when it has none."""
+    if trajectory.contact_forces is None:
         return None
-    forces = np.asarray(forces, dtype=float)
-    if forces.shape != (trajectory.frames, corners, 3):
-        forces = forces.reshape(trajectory.frames, -1, 3) if forces.size else forces
-        if forces.shape != (trajectory.frames, corners, 3):
-            raise ViewerError(
-                f"contact_forces has shape {np.shape(forces)}, expected "
-                f"({trajectory.frames}, {corners}, 3): one force per sole corner"
-            )
+    unknown = sorted(set(trajectory.corner_names) - set(corners))
+    if unknown:
+        raise ViewerError(f"contact forces at corners {unknown}, not sole corners {list(corners)}")
+    rows = {name: i for i, name in enumerate(corners)}
+    forces = np.zeros((trajectory.frames, len(corners), 3))
+    forces[:, [rows[name] for name in trajectory.corner_names]] = trajectory.contact_forces
     return forces
 
 

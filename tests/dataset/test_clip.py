@@ -1,5 +1,7 @@
-"""MCAP clips: round trips, the official mcap reader, windows, corrupt files, atomic writes."""
+"""MCAP clips: round trips, the official mcap reader, windows, corrupt files, atomic writes,
+the optional contact forces and landmarks (and files written before them)."""
 
+import json
 from dataclasses import replace
 from pathlib import Path
 
@@ -10,7 +12,7 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 
 import motionkit.dataset.clip as clip_module
-from motionkit.dataset import read, read_metadata, write
+from motionkit.dataset import corner_names, read, read_metadata, write
 from motionkit.dataset.clip import read_urdf
 from motionkit.dataset.messages import motion_chunk_class
 from motionkit.dataset.synthetic import synthetic_trajectory
@@ -170,3 +172,115 @@ def test_write_rejects_a_trajectory_of_another_robot(tmp_path: Path, toy_robot, 
     with pytest.raises(DatasetError, match=r"joint_names .* differ from robot 'toy'"):
         write(tmp_path / "x.mcap", walk, toy_robot)
     assert not (tmp_path / "x.mcap").exists()
+
+
+SKELETON = ("pelvis", "l_hip", "l_knee", "r_hip", "r_knee")
+PARENTS = (-1, 0, 1, 0, 3)
+
+
+def with_extras(walk, robot):
+    """The walk with planned contact forces and a five-landmark skeleton."""
+    rng = np.random.default_rng(3)
+    return replace(
+        walk,
+        corner_names=corner_names(robot),
+        contact_forces=rng.normal(50.0, 20.0, (walk.frames, 8, 3)),
+        landmark_names=SKELETON,
+        landmark_parents=PARENTS,
+        landmarks=rng.normal(0.0, 0.5, (walk.frames, len(SKELETON), 3)),
+    )
+
+
+def test_contact_forces_and_landmarks_round_trip(tmp_path: Path, robot, walk) -> None:
+    extras = with_extras(walk, robot)
+    assert extras.corner_names[:2] == ("l_sole_1", "l_sole_2") and len(extras.corner_names) == 8
+    path = write(tmp_path / "extras.mcap", extras, robot)
+    back = read(path)
+    assert back.equals(extras) and not back.equals(walk)
+    assert back.contact_forces.dtype == np.float32 and back.contact_forces.shape == (360, 8, 3)
+    assert back.landmark_parents == PARENTS and back.landmarks.shape == (360, 5, 3)
+    # windows read only some chunks and still hold the extras of those frames
+    window = read(path, 1.0, 1.5)
+    assert window.equals(extras.window(1.0, 1.5))
+    np.testing.assert_array_equal(window.landmarks[0], extras.landmarks[120])
+    np.testing.assert_array_equal(
+        extras.select(slice(5, 9)).contact_forces[0], extras.contact_forces[5]
+    )
+    _, record = read_metadata(path)
+    assert json.loads(record["corner_names"]) == list(corner_names(robot))
+    assert json.loads(record["landmark_parents"]) == list(PARENTS)
+    assert record["has_contact_forces"] == "true" and record["has_landmarks"] == "true"
+    # one without the other
+    forces_only = replace(extras, landmark_names=(), landmark_parents=(), landmarks=None)
+    back = read(write(tmp_path / "forces.mcap", forces_only, robot))
+    assert back.equals(forces_only) and back.landmarks is None and back.landmark_names == ()
+    # the official reader sees the new fields through the schema embedded in the file
+    with open(path, "rb") as handle:
+        _, _, message = next(make_reader(handle).iter_messages(topics=["/motion"]))
+    decoded = motion_chunk_class().FromString(message.data)
+    np.testing.assert_array_equal(
+        np.reshape(decoded.contact_forces, (-1, 8, 3)), extras.contact_forces[:120]
+    )
+
+
+def test_a_file_of_the_older_format_reads_without_extras(
+    tmp_path: Path, robot, walk, monkeypatch
+) -> None:
+    """Files written before the extras: schema fields 1-10, no extras keys in the metadata."""
+    import motionkit.dataset.messages as messages
+
+    new_keys = ("corner_names", "landmark_names", "landmark_parents")
+    new_keys += ("has_contact_forces", "has_landmarks")
+    record = clip_module._metadata_record
+    with monkeypatch.context() as patch:
+        patch.setattr(messages, "CHUNK_FIELDS", messages.CHUNK_FIELDS[:10])
+        patch.setattr(
+            clip_module,
+            "_metadata_record",
+            lambda t: {k: v for k, v in record(t).items() if k not in new_keys},
+        )
+        path = write(tmp_path / "old.mcap", with_extras(walk, robot), robot)  # extras dropped
+    _, old_record = read_metadata(path)
+    assert not set(new_keys) & set(old_record)
+    back = read(path)
+    assert back.contact_forces is None and back.landmarks is None and back.corner_names == ()
+    assert back.equals(walk)
+
+
+def test_extras_shapes_and_skeletons_are_checked(robot, walk) -> None:
+    extras = with_extras(walk, robot)
+    with pytest.raises(DatasetError, match=r"contact_forces has shape \(360, 8, 2\), expected"):
+        replace(extras, contact_forces=np.zeros((360, 8, 2)))
+    with pytest.raises(DatasetError, match=r"landmarks has shape \(360, 4, 3\), expected"):
+        replace(extras, landmarks=np.zeros((360, 4, 3)))
+    with pytest.raises(DatasetError, match="corner_names given without contact_forces"):
+        replace(extras, contact_forces=None)
+    with pytest.raises(DatasetError, match="landmark_parents has 4 entries"):
+        replace(extras, landmark_parents=PARENTS[:4])
+    with pytest.raises(DatasetError, match=r"landmark_parents\[2\] = 3 \(l_knee\)"):
+        replace(extras, landmark_parents=(-1, 0, 3, 0, 3))  # a parent after its child
+    with pytest.raises(DatasetError, match="repeat a name"):
+        replace(extras, landmark_names=("a", "b", "c", "d", "a"))
+
+
+def test_contact_forces_must_be_the_robots_corners(tmp_path: Path, robot, walk) -> None:
+    from motionkit.dataset.validate import check_corners
+
+    extras = with_extras(walk, robot)
+    swapped = replace(extras, corner_names=(*corner_names(robot)[4:], *corner_names(robot)[:4]))
+    with pytest.raises(DatasetError, match=r"corner_names \['r_sole_1'.* differ from robot"):
+        write(tmp_path / "swapped.mcap", swapped, robot)
+    assert check_corners(extras, robot).ok
+    failed = check_corners(swapped, robot)
+    assert not failed.ok and "expected ['l_sole_1'" in failed.detail
+
+
+def test_resample_interpolates_the_extras(robot, walk) -> None:
+    from motionkit.dataset import resample
+
+    extras = with_extras(walk, robot)
+    half = resample(extras, 60.0)  # every other frame of 120 Hz: the frames themselves
+    np.testing.assert_allclose(half.contact_forces, extras.contact_forces[::2], atol=1e-4)
+    between = resample(extras.window(end=0.5), 80.0)  # frame 1 at 1/80 s: 1.5 frames of 120 Hz
+    expected = 0.5 * (extras.landmarks[1] + extras.landmarks[2])
+    np.testing.assert_allclose(between.landmarks[1], expected, atol=1e-6)

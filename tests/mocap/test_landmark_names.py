@@ -130,3 +130,17 @@ def test_bad_mappings(tmp_path: Path) -> None:
 def test_template_lists_every_landmark() -> None:
     table = tomllib.loads(mapping_template({"l_hip": "Thigh_L"}))["landmarks"]
     assert tuple(table) == LANDMARKS and table["l_hip"] == "Thigh_L" and table["head"] == ""
+
+
+def test_skeleton_tree_of_all_and_of_some_landmarks() -> None:
+    from motionkit.mocap.naming import skeleton
+
+    names, parents = skeleton(LANDMARKS)
+    assert names == LANDMARKS and parents.count(-1) == 1 and parents[0] == -1
+    bone = {names[i]: names[p] for i, p in enumerate(parents) if p >= 0}
+    assert bone["l_toe"] == "l_ankle" and bone["r_hip"] == "pelvis" and bone["r_wrist"] == "r_elbow"
+    assert bone["l_shoulder"] == "neck" and bone["neck"] == "chest"
+    # without pelvis and chest: hips and spine become roots; the neck hangs from the spine
+    names, parents = skeleton(["neck", "l_knee", "spine", "l_hip", "r_hip", "unknown"])
+    assert names == ("l_hip", "l_knee", "r_hip", "spine", "neck")
+    assert parents == (-1, 0, -1, -1, 3)

@@ -1,12 +1,13 @@
-"""The retargeter on a synthetic walker: clean contacts, limits, tracking; a valid clip."""
+"""The retargeter on a synthetic walker: clean contacts, limits, tracking; a valid clip that
+holds the scaled human it was retargeted to."""
 
 from pathlib import Path
 
 import numpy as np
 import pytest
-from walker import SHANK, THIGH, walker
+from walker import HIP_Y, SHANK, THIGH, walker
 
-from motionkit.dataset import write
+from motionkit.dataset import read, write
 from motionkit.dataset.validate import validate_clip
 from motionkit.errors import RetargetError
 from motionkit.retarget.config import RetargetConfig
@@ -53,6 +54,61 @@ def test_output_is_a_valid_clip(result, tmp_path: Path) -> None:
     checks = validate_clip(write(tmp_path / "walk.mcap", trajectory, robot), robot)
     assert all(c.ok for c in checks), [c for c in checks if not c.ok]
     assert trajectory.metadata.generator == "retarget" and trajectory.metadata.kind == "walk"
+
+
+def test_clip_holds_the_scaled_human_it_was_retargeted_to(result, tmp_path: Path) -> None:
+    from motionkit.mocap import LANDMARKS
+    from motionkit.retarget.metrics import Kinematics
+    from motionkit.retarget.points import robot_points
+    from motionkit.retarget.targets import RobotGeometry, low_pass
+    from motionkit.robot.geometry import to_rotation
+
+    landmarks, trajectory = result
+    robot, config = ironcub(), RetargetConfig()
+    clip = read(write(tmp_path / "walk.mcap", trajectory, robot))
+    names, parents, human = clip.landmark_names, clip.landmark_parents, clip.landmarks
+    assert names == LANDMARKS and human.shape == (trajectory.frames, 19, 3)
+    # parents form one tree rooted at the pelvis (parents come first: no cycles)
+    assert parents.count(-1) == 1 and parents[0] == -1
+    assert all(-1 < p < i for i, p in enumerate(parents) if i)
+    bone = {names[i]: names[p] for i, p in enumerate(parents) if p >= 0}
+    assert bone["l_ankle"] == "l_knee" and bone["r_hip"] == "pelvis"
+    assert bone["l_shoulder"] == "neck" and bone["head"] == "neck"
+
+    # the low-passed walker scaled about the origin and lifted: one offset (0, 0, lift) for all
+    scale = trajectory.metadata.metrics["scale"]
+    source = np.stack([low_pass(landmarks[n], 120.0, config.smoothing_hz) for n in names], 1)
+    offset = (human - scale * source).reshape(-1, 3)
+    np.testing.assert_allclose(offset, np.tile(offset[0], (len(offset), 1)), atol=1e-6)
+    assert offset[0, :2] == pytest.approx([0.0, 0.0], abs=1e-6)
+    at = {name: human[:, i].astype(float) for i, name in enumerate(names)}
+    legs = [
+        np.linalg.norm(at[f"{s}_knee"] - at[f"{s}_hip"], axis=1)
+        + np.linalg.norm(at[f"{s}_ankle"] - at[f"{s}_knee"], axis=1)
+        for s in "lr"
+    ]
+    assert np.median(np.concatenate(legs)) == pytest.approx(0.2345254 + 0.2005, abs=1e-5)
+    # ankles in contact at the robot's ankle height above its sole (the lift's definition)
+    points = robot_points(robot, config.points)
+    geometry = RobotGeometry(robot, points, config.points.torso_frame)
+    contacts = trajectory.contacts
+    heights = np.concatenate([at[f"{s}_ankle"][contacts[:, k], 2] for k, s in enumerate("lr")])
+    assert np.median(heights) == pytest.approx(geometry.ankle_height, abs=1e-6)
+
+    # the robot's ankles where the human's are in contact. The robot is rebuilt with its own
+    # segments along the human's: its ankle differs from the scaled one by the hip offset
+    # (robot hip half-width vs the scaled human's, lateral) plus (thigh - shank) x the difference
+    # of the thigh and shank directions (3.4 cm x knee bend, forward and up), plus IK tracking.
+    base = np.broadcast_to(np.eye(4), (trajectory.frames, 4, 4)).copy()
+    base[:, :3, :3] = to_rotation(trajectory.base_orientation.astype(float)).as_matrix()
+    base[:, :3, 3] = trajectory.base_position
+    kinematics = Kinematics(robot, base, trajectory.joint_positions.astype(float))
+    lateral = abs(geometry.hip[0, 1]) - scale * HIP_Y  # m, 2.4 cm
+    assert 0.02 < lateral < 0.03
+    for k, s in enumerate("lr"):
+        error = np.abs(kinematics.point(points[f"{s}_ankle"]) - at[f"{s}_ankle"])[contacts[:, k]]
+        assert error[:, 0].max() < 0.02 and error[:, 2].max() < 0.02
+        assert error[:, 1].max() < lateral + 0.005
 
 
 def test_missing_landmarks_and_bad_config() -> None:

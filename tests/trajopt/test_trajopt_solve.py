@@ -1,4 +1,5 @@
-"""Small solved problems (take-off, landing), their checks, outputs, CLI and the infeasible path."""
+"""Small solved problems (take-off, landing), their checks, outputs (the planned contact forces
+included), CLI and the infeasible path."""
 
 from __future__ import annotations
 
@@ -10,11 +11,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from motionkit.dataset import read
+from motionkit.dataset import Trajectory, corner_names, read
+from motionkit.robot import THRUST_AXIS
+from motionkit.robot.geometry import to_rotation
+from motionkit.robot.kinematics import frame_poses
 from motionkit.robot.model import ironcub
 from motionkit.trajopt.checks import check_solution
 from motionkit.trajopt.command import add_commands
 from motionkit.trajopt.config import TrajoptConfig
+from motionkit.trajopt.kinematics import GRAVITY
 from motionkit.trajopt.replay import replay
 from motionkit.trajopt.solve import solve
 
@@ -86,6 +91,35 @@ def test_cli_writes_clip_with_metrics(tmp_path: Path) -> None:
     assert knots["com"][-1] == pytest.approx([0.0, 0.0, 0.9], abs=0.01)
     resolved = json.loads((tmp_path / "out" / "hop.config.json").read_text())
     assert resolved["config"]["scenario"]["target"] == [0.0, 0.0, 0.9]
+    check_contact_forces(clip, knots)
+
+
+def check_contact_forces(clip: Trajectory, knots: dict[str, np.ndarray]) -> None:
+    """The clip's planned contact forces are the knots' (corner order, resampled linearly), and
+    while standing they carry the weight less the thrust: by the explicit-Euler CoM dynamics,
+    sum f_z(k) = m (g + (v_z(k+1) - v_z(k)) / dt) - sum_j T_j(k) d_jz(k), d_j the thrust
+    direction of jet j (its THRUST_AXIS in the world)."""
+    robot = ironcub()
+    assert clip.corner_names == corner_names(robot) and clip.contact_forces.shape[1:] == (8, 3)
+    time, forces = knots["time"], knots["forces"].reshape(len(knots["time"]), 8, 3)
+    np.testing.assert_array_equal(clip.contact_forces[0], forces[0].astype(np.float32))
+    assert np.abs(clip.contact_forces[-1]).max() < 0.5  # hovering: no force off the ground
+
+    jets = [jet.frame for jet in robot.spec.jets]
+    local = frame_poses(robot.model, robot.joint_names, knots["joints"], jets)[..., :3, :3]
+    base = to_rotation(knots["base_quaternion"]).as_matrix()
+    directions = np.einsum("kij,knjl,l->kni", base, local, THRUST_AXIS)
+    thrust_z = np.einsum("kn,kn->k", knots["thrust"], directions[..., 2])
+    acceleration = np.diff(knots["com_velocity"][:, 2]) / float(knots["dt"])
+    weight = robot.total_mass * (GRAVITY + acceleration) - thrust_z[:-1]  # knots 0..N-2
+    standing = np.flatnonzero(forces[:, :, 2].sum(axis=1) > 1.0)
+    assert len(standing) >= 3 and standing[-1] < len(time) - 1
+    assert np.array_equal(standing, np.arange(len(standing)))  # one phase, from the start
+    assert weight[0] == pytest.approx(robot.total_mass * GRAVITY - 4 * 16.0, rel=0.05)  # idle
+    frames = clip.time <= time[standing[-1]]  # every frame between standing knots
+    expected = np.interp(clip.time[frames], time[standing], weight[standing])
+    written = clip.contact_forces[frames, :, 2].astype(float).sum(axis=1)
+    np.testing.assert_allclose(written, expected, atol=0.05)  # IPOPT's tolerance, float32
 
 
 def test_infeasible_request_reports_and_writes_nothing(

@@ -1,5 +1,6 @@
 """ViewerApp without a browser: the player's timeline, real-time playback, clip picker and
-overlays; the robot alone with a slider per joint."""
+overlays (the human skeleton of retargeted clips, planned contact forces); the robot alone with a
+slider per joint."""
 
 import time
 from collections.abc import Iterator
@@ -12,8 +13,10 @@ from viewer_support import free_port
 
 pytest.importorskip("viser")
 
-from motionkit.dataset import write
+from motionkit.dataset import corner_names, write
 from motionkit.dataset.synthetic import synthetic_trajectory
+from motionkit.mocap import LANDMARKS
+from motionkit.mocap.naming import skeleton
 from motionkit.robot import ironcub
 from motionkit.viewer.app import ViewerApp
 from motionkit.viewer.scene import CONTACT_COLOR, FREE_COLOR, THRUST_LENGTH
@@ -120,3 +123,111 @@ def test_cli_robot_and_path_are_exclusive(tmp_path: Path, capsys) -> None:
 
     assert main(["view", str(tmp_path), "--robot"]) == 2
     assert "not both" in capsys.readouterr().err
+    assert main(["view", str(tmp_path), "--skeleton-offset", "nan"]) == 2
+    assert "--skeleton-offset must be a finite distance" in capsys.readouterr().err
+
+
+# -- the human skeleton of retargeted clips and the contact forces of optimised flights --------
+@pytest.fixture(scope="module")
+def extras(tmp_path_factory: pytest.TempPathFactory) -> Iterator[ViewerApp]:
+    """Clips a_human (landmarks), b_hop (contact forces) and c_plain (neither)."""
+    robot = ironcub()
+    root = tmp_path_factory.mktemp("extras")
+    names, parents = skeleton(LANDMARKS)
+    motion = synthetic_trajectory(robot, 1.0, seed=5)
+    rng = np.random.default_rng(5)
+    body = rng.uniform(-0.3, 0.3, (len(names), 3))  # a rigid "human" riding on the base
+    human = motion.base_position[:, None, :] + body
+    write(
+        root / "a_human.mcap",
+        replace(motion, landmark_names=names, landmark_parents=parents, landmarks=human),
+        robot,
+    )
+    weight = robot.total_mass * 9.81
+    forces = np.zeros((motion.frames, 8, 3))
+    forces[:, :4] = [0.05 * weight, 0.0, weight / 4]  # the left foot carries the robot
+    forces[:, 4:, 2] = 1e-4 * weight  # below the threshold: no arrow
+    planned = replace(motion, corner_names=corner_names(robot), contact_forces=forces)
+    write(root / "b_hop.mcap", planned, robot)
+    write(root / "c_plain.mcap", motion, robot)
+    clips = sorted(resolve_clips(root), key=lambda c: c.name)
+    app = ViewerApp(robot, clips, port=free_port(), skeleton_offset=0.8)
+    yield app
+    app.close()
+
+
+def test_skeleton_stands_beside_the_robot(extras: ViewerApp) -> None:
+    extras.select_clip(0)
+    motion, skeleton = extras.motion, extras.skeleton
+    assert skeleton is not None and motion.landmarks is not None
+    # iRonCub faces -x: its left is -y, where the base starts (yaw 0); 0.8 m from the option
+    offset = np.array([0.0, -0.8, 0.0])
+    np.testing.assert_allclose(skeleton.offset, offset, atol=1e-12)
+    frame = extras.set_time(0.5)
+    assert frame == 60
+    points = motion.landmarks[frame] + offset
+    np.testing.assert_allclose(skeleton.joints.batched_positions, points, atol=1e-6)
+    bones = skeleton.bones.points  # one segment per landmark with a parent, parent first
+    assert bones.shape == (len(LANDMARKS) - 1, 2, 3)
+    knee, ankle = LANDMARKS.index("l_knee"), LANDMARKS.index("l_ankle")
+    np.testing.assert_allclose(bones[ankle - 1], points[[knee, ankle]], atol=1e-6)
+    assert skeleton.joints.visible and skeleton.bones.visible
+    assert "human skeleton (19 landmarks, scaled to the robot) shown, 0.8 m" in extras.info.content
+    assert "contact forces" not in extras.info.content and extras.show_forces.disabled
+    assert not extras.scene.forces.visible
+
+    extras.show_skeleton.value = False  # hidden: not posed while hidden, posed again when shown
+    assert not skeleton.joints.visible and not skeleton.bones.visible
+    assert "human skeleton (19 landmarks, scaled to the robot) hidden" in extras.info.content
+    extras.set_time(0.25)
+    np.testing.assert_allclose(skeleton.joints.batched_positions, points, atol=1e-6)
+    extras.show_skeleton.value = True
+    np.testing.assert_allclose(
+        skeleton.joints.batched_positions, motion.landmarks[30] + offset, atol=1e-6
+    )
+
+
+def test_side_offset_turns_with_the_robot() -> None:
+    from motionkit.viewer.skeleton import side_offset
+
+    yaw = np.radians(90.0)  # facing -x turned left: facing -y, its left is +x
+    quat = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
+    np.testing.assert_allclose(
+        side_offset((-1.0, 0.0, 0.0), quat, 2.0), [2.0, 0.0, 0.0], atol=1e-12
+    )
+    pitched = [np.cos(np.pi / 8), 0.0, np.sin(np.pi / 8), 0.0]  # 45 deg pitch: left stays -y
+    np.testing.assert_allclose(side_offset((1.0, 0.0, 0.0), pitched, 1.0), [0, 1.0, 0], atol=1e-12)
+
+
+def test_contact_force_arrows_from_the_corners(extras: ViewerApp) -> None:
+    extras.select_clip(1)
+    assert extras.skeleton is None and extras.show_skeleton.disabled
+    assert not extras.show_forces.disabled
+    frame = extras.set_time(0.3)
+    arrows = extras.scene.forces.points
+    assert extras.scene.forces.visible and arrows.shape == (4, 2, 3)  # the right foot's are tiny
+    corners = [extras.scene.link_pose(c)[:3, 3] for c in corner_names(extras.robot)[:4]]
+    np.testing.assert_allclose(arrows[:, 0], corners, atol=1e-6)
+    # 0.5 m per body weight: a quarter of the weight up, 5 % of it along +x
+    np.testing.assert_allclose(arrows[:, 1] - arrows[:, 0], [[0.025, 0.0, 0.125]] * 4, atol=1e-6)
+    assert extras.forces[frame, 0, 2] == pytest.approx(extras.robot.total_mass * 9.81 / 4, rel=1e-6)
+    assert "planned contact forces shown" in extras.info.content
+    extras.show_forces.value = False
+    assert not extras.scene.forces.visible
+    assert "planned contact forces hidden" in extras.info.content
+    extras.show_forces.value = True
+    assert extras.scene.forces.visible
+
+
+def test_plain_clip_has_neither(extras: ViewerApp) -> None:
+    extras.select_clip(1)
+    extras.select_clip(2)
+    scene = extras.server.scene
+    assert extras.skeleton is None and extras.forces is None
+    assert scene.get_handle_by_name("/overlays/skeleton/joints") is None  # removed
+    assert not extras.scene.forces.visible
+    assert extras.show_skeleton.disabled and extras.show_forces.disabled
+    assert "skeleton" not in extras.info.content and "contact forces" not in extras.info.content
+    extras.select_clip(0)  # the skeleton is back
+    assert extras.skeleton is not None
+    assert scene.get_handle_by_name("/overlays/skeleton/joints") is extras.skeleton.joints

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from motionkit.cli import main
-from motionkit.dataset import write
+from motionkit.dataset import corner_names, write
 from motionkit.dataset.synthetic import synthetic_trajectory
 from motionkit.errors import ViewerError
 from motionkit.robot import ironcub
@@ -72,16 +72,31 @@ def test_description_names_clip_source_and_metrics(run_dir: Path) -> None:
 def test_contact_forces_when_present() -> None:
     robot = ironcub()
     motion = synthetic_trajectory(robot, 0.1)
-    assert contact_forces(motion, 8) is None
+    corners = corner_names(robot)
+    assert contact_forces(motion, corners) is None
+    forces = np.arange(motion.frames * 8 * 3, dtype=float).reshape(motion.frames, 8, 3)
+    planned = replace(motion, corner_names=corners, contact_forces=forces)
+    np.testing.assert_array_equal(contact_forces(planned, corners), forces)
+    # rows follow the robot's corners, by name; corners without a force get none
+    right_first = (*corners[4:], *corners[:4])
+    shown = contact_forces(planned, right_first)
+    np.testing.assert_array_equal(shown[:, :4], forces[:, 4:])
+    left = replace(planned, corner_names=corners[:4], contact_forces=forces[:, :4])
+    np.testing.assert_array_equal(contact_forces(left, corners)[:, 4:], 0.0)
+    with pytest.raises(ViewerError, match=r"corners \['l_sole_1'.*not sole corners"):
+        contact_forces(planned, corners[1:])
 
-    class WithForces:  # a trajopt clip's forces: one per sole corner
-        frames = motion.frames
-        contact_forces = np.ones((motion.frames, 2, 4, 3))
 
-    assert contact_forces(WithForces(), 8).shape == (12, 8, 3)  # type: ignore[arg-type]
-    WithForces.contact_forces = np.ones((motion.frames, 5, 3))
-    with pytest.raises(ViewerError, match="one force per sole corner"):
-        contact_forces(WithForces(), 8)  # type: ignore[arg-type]
+def test_clip_with_forces_at_unknown_corners_is_refused(tmp_path: Path) -> None:
+    robot = ironcub()
+    motion = synthetic_trajectory(robot, 0.2)
+    forces = np.zeros((motion.frames, 8, 3))
+    planned = replace(motion, corner_names=corner_names(robot), contact_forces=forces)
+    clip = resolve_clips(write(tmp_path / "hop.mcap", planned, robot))[0]
+    assert check_robot(clip, robot) == ""
+    renamed = {**clip.record, "corner_names": json.dumps(["l_heel", *corner_names(robot)[1:]])}
+    with pytest.raises(ViewerError, match=r"hop\.mcap: .* corners \['l_heel'\] that robot"):
+        check_robot(replace(clip, record=renamed), robot)
 
 
 def test_other_robot_is_refused_and_other_model_warned(run_dir: Path, toy_robot) -> None:
