@@ -8,7 +8,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.spatial.transform import Slerp
+from scipy.interpolate import PchipInterpolator
+from scipy.spatial.transform import RotationSpline
 
 from motionkit.dataset import Metadata, Source, Trajectory, corner_names, write
 from motionkit.outputs import atomic_output, write_text_atomic
@@ -20,8 +21,13 @@ CONTACT_FORCE = 1.0  # N: a foot is in contact when its corners carry more than 
 
 
 def to_trajectory(solution: Solution, robot: Robot, metrics: dict[str, Any]) -> Trajectory:
-    """The knots resampled to `config.rate` (linear; quaternions by slerp; contacts held from
-    the knot before), with the planned force of every sole corner [N, world frame]."""
+    """The knots resampled to `config.rate`, with the planned force of every sole corner [N,
+    world frame]. Joint and base positions follow shape-preserving cubics through the knots
+    (PCHIP: no overshoot, so a joint on its limit stays there) and the orientation a rotation
+    spline; the velocities written are their derivatives, so that a clip's velocities agree with
+    its positions (the plan's own knot velocities, forward-Euler steps that change abruptly from
+    knot to knot, are in the .knots.npz). Contacts are held from the knot before; forces,
+    thrust and throttle are linear."""
     knots, config = solution.knots, solution.config
     time = solution.time
     frames = int(np.floor(time[-1] * config.rate + 1e-9)) + 1
@@ -33,26 +39,33 @@ def to_trajectory(solution: Solution, robot: Robot, metrics: dict[str, Any]) -> 
             [np.interp(out_time, time, values[:, i]) for i in range(values.shape[1])], 1
         )
 
-    slerp = Slerp(time, to_rotation(knots["base_quaternion"]))
-    quats = from_rotation(slerp(out_time))
+    def smooth(name: str) -> tuple[np.ndarray, np.ndarray]:
+        curve = PchipInterpolator(time, knots[name], axis=0)
+        return curve(out_time), curve.derivative()(out_time)
+
+    joints, joint_velocities = smooth("joints")
+    base_position, base_velocity = smooth("base_position")
+    spline = RotationSpline(time, to_rotation(knots["base_quaternion"]))
+    orientation = spline(out_time)
+    omega = orientation.apply(spline(out_time, 1))  # scipy's rate is in the body frame
     per_foot = knots["forces"].shape[1] // 3 // len(robot.spec.feet)
     normal = knots["forces"][:, 2::3].reshape(len(time), len(robot.spec.feet), per_foot)
     loaded = normal.sum(axis=2) > CONTACT_FORCE
-    contact_index = np.clip(np.searchsorted(time, out_time, "right") - 1, 0, len(time) - 1)
+    interval = np.clip(np.searchsorted(time, out_time, "right") - 1, 0, len(time) - 1)
     throttle = lerp("throttle") if config.jets.model == "p250" else None
     corners = corner_names(robot)  # the knots' corner order (trajopt.kinematics)
     return Trajectory(
         time=out_time,
-        base_position=lerp("base_position"),
-        base_orientation=quats,
+        base_position=base_position,
+        base_orientation=from_rotation(orientation),
         joint_names=robot.joint_names,
-        joint_positions=lerp("joints"),
-        joint_velocities=lerp("joint_velocities"),
-        base_linear_velocity=lerp("base_velocity"),
-        base_angular_velocity=lerp("base_angular_velocity"),
+        joint_positions=joints,
+        joint_velocities=joint_velocities,
+        base_linear_velocity=base_velocity,
+        base_angular_velocity=omega,
         thrust=lerp("thrust"),
         throttle=throttle,
-        contacts=loaded[contact_index],
+        contacts=loaded[interval],
         jet_names=tuple(jet.name for jet in robot.spec.jets),
         foot_names=tuple(foot.side for foot in robot.spec.feet),
         corner_names=corners,
