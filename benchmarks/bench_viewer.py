@@ -15,13 +15,15 @@ import argparse
 import socket
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from motionkit.dataset import write
+from motionkit.dataset import Trajectory, corner_names, write
 from motionkit.dataset.synthetic import synthetic_trajectory
+from motionkit.mocap.naming import LANDMARKS, skeleton
 from motionkit.robot import ironcub
 from motionkit.viewer.app import ViewerApp
 from motionkit.viewer.meshes import robot_meshes
@@ -32,6 +34,21 @@ def free_port() -> int:
     with socket.socket() as probe:
         probe.bind(("127.0.0.1", 0))
         return probe.getsockname()[1]
+
+
+def with_overlays(trajectory: Trajectory) -> Trajectory:
+    """Every overlay drawn: a 19-landmark skeleton and 8 corner forces on each frame."""
+    rng = np.random.default_rng(1)
+    names, parents = skeleton(LANDMARKS)
+    frames, robot = trajectory.frames, ironcub()
+    return replace(
+        trajectory,
+        landmark_names=names,
+        landmark_parents=parents,
+        landmarks=rng.normal(size=(frames, len(names), 3)).astype(np.float32),
+        corner_names=corner_names(robot),
+        contact_forces=rng.uniform(0, 60, size=(frames, 8, 3)).astype(np.float32),
+    )
 
 
 def naive_update(app: ViewerApp, frame: int) -> None:
@@ -73,8 +90,9 @@ def main() -> None:
     robot_meshes(robot, use_cache=False)
     meshes_cold_s = time.perf_counter() - start
     robot_meshes(robot)  # fills the cache every later start reads
-    trajectory = synthetic_trajectory(robot, args.seconds, 120.0, thrust=100.0)
-    print(f"clip: {trajectory.frames} frames at 120 Hz ({args.seconds:.0f} s), 23 joints, 4 jets")
+    trajectory = with_overlays(synthetic_trajectory(robot, args.seconds, 120.0, thrust=100.0))
+    print(f"clip: {trajectory.frames} frames at 120 Hz ({args.seconds:.0f} s), 23 joints, 4 jets, "
+          "skeleton and contact forces")  # fmt: skip
     print(f"robot model built once per process: {robot_s:.2f} s; meshes without cache: "
           f"{meshes_cold_s:.2f} s (cached afterwards)")  # fmt: skip
     with tempfile.TemporaryDirectory() as folder:
