@@ -7,7 +7,8 @@ reference the published solver took about 27.5 min (HSL ma97, limited-memory Hes
 baseline in the same run is the same problem with a limited-memory Hessian, without the warm
 start of the complementarity homotopy, or with the derivatives left uncompiled. The first run
 on a machine also compiles the derivatives to C (1-2 min, cached; in "build"). Prints problem
-size, iterations, wall time and residuals of each.
+size, iterations, wall time and residuals of each. The recipe sets the homotopy eps 1e-2, 1e-4,
+1e-6 and IPOPT's 'loqo' barrier oracle for the cold first step (the recipe gives the reasons).
 """
 
 from __future__ import annotations

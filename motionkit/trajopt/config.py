@@ -16,6 +16,7 @@ from motionkit.tomlfile import build_dataclass, read_toml
 SCENARIOS = ("takeoff", "walk_to_fly", "flight_to_waypoint", "landing", "jet_jump")
 STARTS = ("stand", "hover")
 ENDS = ("stand", "hover")
+ORACLES = ("loqo", "quality-function", "probing")  # IPOPT's mu_oracle values
 
 
 @dataclass(frozen=True)
@@ -67,7 +68,7 @@ class Weights:
 class Contacts:
     mu: float = 0.33  # friction pyramid (published setting)
     # Relaxed complementarity f_z c_z <= eps, f_z in units of m g / 8: the homotopy solves with
-    # each value in turn, warm-started from the previous solution.
+    # each value in turn, warm-started from the previous solution (walk_to_fly.toml adds 1e-4).
     eps: tuple[float, ...] = (1e-2, 1e-6)
     slip_eps: float = 1e-4  # no slip while loaded: |f_z * step of the corner| <= this [m]
 
@@ -92,6 +93,9 @@ class Solver:
     print_level: int = 5  # IPOPT's; 0 = quiet
     warm_start: bool = True  # warm-start each homotopy step from the previous one
     mu_strategy: str = "adaptive"  # IPOPT's barrier update: 'monotone' or 'adaptive'
+    # IPOPT's mu_oracle (adaptive barrier update) of the first, cold homotopy step; IPOPT's own
+    # default here, 'loqo' in walk_to_fly.toml (why: there). Warm steps always use the default.
+    cold_mu_oracle: str = "quality-function"
     options: dict[str, Any] = field(default_factory=dict)  # further IPOPT options, verbatim
 
 
@@ -154,6 +158,9 @@ class TrajoptConfig:
             raise bad("scenario.step_land / apex_at", "fractions in (0, 1)", s)
         if self.jets.model not in ("p250", "rate"):
             raise bad("jets.model", "'p250' or 'rate'", self.jets.model)
+        if solver.cold_mu_oracle not in ORACLES:
+            oracle = solver.cold_mu_oracle
+            raise bad("solver.cold_mu_oracle", f"one of {', '.join(ORACLES)}", oracle)
         if solver.hessian not in ("exact", "limited-memory"):
             raise bad("solver.hessian", "'exact' or 'limited-memory'", solver.hessian)
         if not 0 < solver.dt_min <= solver.dt_max:

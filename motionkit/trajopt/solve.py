@@ -112,7 +112,10 @@ class Prepared:
             "linear_solver": "mumps",
             "mu_strategy": solver.mu_strategy,
             "sb": "yes",
-        } | solver.options
+        }
+        if not warm:  # the cold step's barrier oracle (config.py: why)
+            ipopt["mu_oracle"] = solver.cold_mu_oracle
+        ipopt |= solver.options
         if solver.hessian == "limited-memory":
             ipopt["hessian_approximation"] = "limited-memory"
         if warm:
