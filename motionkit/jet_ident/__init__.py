@@ -29,7 +29,6 @@ _LAZY = {
     "identify": "fit",
     "fit_grey_box": "baselines",
     "fit_first_order": "baselines",
-    "evaluate": "evaluate",
     "noise_floor": "evaluate",
     "save_model": "export",
     "load_model": "export",
