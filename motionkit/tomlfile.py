@@ -50,6 +50,28 @@ def build_dataclass(
         raise error(f"{where}: {exc}") from exc
 
 
+def build_tables(
+    data: dict[str, Any],
+    tables: dict[str, type],
+    where: str,
+    error: type[MotionkitError],
+    others: tuple[str, ...] = (),
+) -> dict[str, Any]:
+    """One dataclass per [table] of a recipe (`build_dataclass`; a table left out keeps its
+    defaults); a table that is neither in `tables` nor in `others` is refused."""
+    unknown = sorted(set(data) - set(tables) - set(others))
+    if unknown:
+        known = sorted([*tables, *others])
+        raise error(f"{where}: unknown tables {unknown}; known: {known}")
+    values = {}
+    for name, kind in tables.items():
+        table = data.get(name, {})
+        if not isinstance(table, dict):
+            raise error(f"{where}: '{name}' should be a table [{name}]")
+        values[name] = build_dataclass(kind, table, f"{where}: [{name}]", error)
+    return values
+
+
 def _is_int(value: object) -> bool:
     return isinstance(value, int) and not isinstance(value, bool)
 

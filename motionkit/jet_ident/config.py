@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from motionkit.errors import JetIdentError
-from motionkit.tomlfile import build_dataclass, read_toml
+from motionkit.tomlfile import build_tables, read_toml
 
 
 def _positive(config: Any, names: tuple[str, ...]) -> None:
@@ -110,16 +110,7 @@ class JetIdentConfig:
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<config>") -> JetIdentConfig:
         tables = {"bench": BenchConfig, "model": ModelConfig, "train": TrainConfig}
-        unknown = sorted(set(data) - set(tables))
-        if unknown:
-            raise JetIdentError(f"{source}: unknown tables {unknown}; known: {sorted(tables)}")
-        values = {}
-        for name, kind in tables.items():
-            table = data.get(name, {})
-            if not isinstance(table, dict):
-                raise JetIdentError(f"{source}: '{name}' should be a table [{name}]")
-            values[name] = _build(kind, table, f"{source}: [{name}]")
-        return cls(**values)
+        return cls(**build_tables(data, tables, source, JetIdentError))
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -140,7 +131,3 @@ def _toml_value(value: Any) -> str:
     if isinstance(value, list | tuple):
         return "[" + ", ".join(_toml_value(v) for v in value) + "]"
     return repr(value)
-
-
-def _build(cls: type, values: dict[str, Any], where: str) -> Any:
-    return build_dataclass(cls, values, where, JetIdentError)

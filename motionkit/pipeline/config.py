@@ -1,18 +1,19 @@
-"""The pipeline recipe: which stage recipes to run, paths relative to the recipe file."""
+"""The pipeline recipe: which stage recipes to run, paths relative to the recipe file (every
+path is required: pipeline/tiny_cpu.toml is the example)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import ClassVar
 
 from motionkit.errors import PipelineError
-from motionkit.tomlfile import build_dataclass, read_toml
+from motionkit.tomlfile import build_tables, read_toml
 
 
 @dataclass(frozen=True)
 class RetargetStage:
-    recipe: str = "../retarget/cmu_walk.toml"  # settings and CMU clip ids (unless --mocap-dir)
+    recipe: str = ""  # settings and CMU clip ids (unless --mocap-dir)
     jobs: int = 0  # processes, 0 = one per CPU
 
 
@@ -24,13 +25,13 @@ class TrajoptStage:
 
 @dataclass(frozen=True)
 class JetIdentStage:
-    recipe: str = "../jet_ident/p250.toml"  # bench logs simulated for its [bench] train_seeds
+    recipe: str = ""  # bench logs are simulated for its [bench] train_seeds
 
 
 @dataclass(frozen=True)
 class TrainStage:
-    recipe: str = "../train/tiny_cpu.toml"
-    full_recipe: str = "../train/paper_gpu.toml"  # with --full
+    recipe: str = ""
+    full_recipe: str = ""  # with --full
     jet: str = "lstm"  # "lstm": the jet model of the jet_ident stage; "ideal": thrust rates
 
 
@@ -52,16 +53,7 @@ class PipelineConfig:
     @classmethod
     def from_toml(cls, path: Path) -> PipelineConfig:
         data = read_toml(path, "pipeline config", PipelineError)
-        unknown = sorted(set(data) - set(cls.TABLES))
-        if unknown:
-            raise PipelineError(f"{path}: unknown tables {unknown}; known: {sorted(cls.TABLES)}")
-        tables: dict[str, Any] = {}
-        for name, kind in cls.TABLES.items():
-            table = data.get(name, {})
-            if not isinstance(table, dict):
-                raise PipelineError(f"{path}: '{name}' should be a table [{name}]")
-            tables[name] = build_dataclass(kind, table, f"{path}: [{name}]", PipelineError)
-        config = cls(Path(path), **tables)
+        config = cls(Path(path), **build_tables(data, cls.TABLES, str(path), PipelineError))
         config.check()
         return config
 
@@ -79,14 +71,14 @@ class PipelineConfig:
             "[train] full_recipe": [self.train.full_recipe],
         }
         for key, paths in named.items():
+            if not any(paths):
+                raise PipelineError(f"{self.source}: {key} is missing (a path to a recipe)")
             for relative in paths:
                 if not self.resolve(relative).is_file():
                     raise PipelineError(
                         f"{self.source}: {key}: {relative} does not exist "
                         f"(looked for {self.resolve(relative)})"
                     )
-        if not self.trajopt.recipes:
-            raise PipelineError(f"{self.source}: [trajopt] recipes is empty")
         if self.train.jet not in ("lstm", "ideal"):
             raise PipelineError(f"{self.source}: [train] jet should be 'lstm' or 'ideal'")
         if self.retarget.jobs < 0:

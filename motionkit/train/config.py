@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 from motionkit.errors import TrainError
-from motionkit.tomlfile import build_dataclass, read_toml
+from motionkit.tomlfile import build_tables, read_toml
 
 SCENARIOS = ("flat", "terrain")
 JETS = ("ideal", "lstm")
@@ -208,16 +208,7 @@ class TrainConfig:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<config>") -> TrainConfig:
-        unknown = sorted(set(data) - set(cls.TABLES) - {"priors"})
-        if unknown:
-            known = sorted([*cls.TABLES, "priors"])
-            raise TrainError(f"{source}: unknown tables {unknown}; known: {known}")
-        values: dict[str, Any] = {}
-        for name, kind in cls.TABLES.items():
-            table = data.get(name, {})
-            if not isinstance(table, dict):
-                raise TrainError(f"{source}: '{name}' should be a table [{name}]")
-            values[name] = build_dataclass(kind, table, f"{source}: [{name}]", TrainError)
+        values = build_tables(data, cls.TABLES, source, TrainError, others=("priors",))
         priors = data.get("priors", {})
         if not isinstance(priors, dict) or not all(isinstance(v, dict) for v in priors.values()):
             raise TrainError(f"{source}: priors should be tables [priors.NAME]")
