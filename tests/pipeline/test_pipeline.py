@@ -58,9 +58,13 @@ def test_the_shipped_recipe_names_existing_files() -> None:
 
 
 def test_recipe_errors_name_the_key(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    recipe = tmp_path / "p.toml"
-    recipe.write_text('[trajopt]\nrecipes = ["missing.toml"]\n')
+    recipe = tiny_recipes(tmp_path)
+    text = recipe.read_text()
+    recipe.write_text(text.replace('"takeoff.toml"', '"takeoff.toml", "missing.toml"'))
     with pytest.raises(PipelineError, match=r"\[trajopt\] recipes: missing.toml does not exist"):
+        PipelineConfig.from_toml(recipe)
+    recipe.write_text(text.replace('recipe = "jet.toml"', ""))
+    with pytest.raises(PipelineError, match=r"\[jet_ident\] recipe is missing"):
         PipelineConfig.from_toml(recipe)
     recipe.write_text("[trajectory]\n")
     assert main(["pipeline", "--config", str(recipe), "--out", str(tmp_path / "o")]) == 2
@@ -108,8 +112,8 @@ eval_rollouts = 1
 def tiny_recipes(folder: Path, hidden: int = 8) -> Path:
     """A pipeline recipe with the smallest stage recipes that still run every stage."""
     (folder / "retarget.toml").write_text('kind = "walk"\n')
-    takeoff = (REPO / "trajopt" / "takeoff.toml").read_text().replace("knots = 20", "knots = 12")
-    (folder / "takeoff.toml").write_text(takeoff)
+    # the recipe's 20 knots: coarser plans resampled at 50 Hz fail the datasets stage's checks
+    (folder / "takeoff.toml").write_text((REPO / "trajopt" / "takeoff.toml").read_text())
     (folder / "jet.toml").write_text(TINY_JET.format(hidden=hidden))
     (folder / "train.toml").write_text(TINY_TRAIN)
     recipe = folder / "pipeline.toml"
