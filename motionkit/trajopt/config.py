@@ -68,7 +68,8 @@ class Weights:
 class Contacts:
     mu: float = 0.33  # friction pyramid (published setting)
     # Relaxed complementarity f_z c_z <= eps, f_z in units of m g / 8: the homotopy solves with
-    # each value in turn, warm-started from the previous solution (walk_to_fly.toml adds 1e-4).
+    # each value in turn, warm-started from the previous solution (walk_to_fly.toml adds 1e-4
+    # and 1e-5).
     eps: tuple[float, ...] = (1e-2, 1e-6)
     slip_eps: float = 1e-4  # no slip while loaded: |f_z * step of the corner| <= this [m]
 
