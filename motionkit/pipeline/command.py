@@ -9,8 +9,9 @@ import sys
 import time
 from pathlib import Path
 
-from motionkit.errors import PipelineError
+from motionkit.errors import MotionkitError, PipelineError
 from motionkit.outputs import write_text_atomic
+from motionkit.pipeline.cache import Outcome
 from motionkit.pipeline.config import PipelineConfig
 from motionkit.pipeline.stages import STAGES, Context
 
@@ -98,13 +99,9 @@ def _run(args: argparse.Namespace) -> int:
         tick = time.perf_counter()
         try:
             outcome = stage(ctx)
-        except PipelineError:
-            raise
-        except Exception as exc:
-            print(f"\n=== {name} failed after {time.perf_counter() - tick:.0f} s", file=sys.stderr)
-            if isinstance(exc, KeyboardInterrupt | SystemExit):
-                raise
-            raise PipelineError(f"stage {name}: {exc}") from exc
+        except MotionkitError as exc:  # bad input or a failed solve; a bug keeps its traceback
+            seconds = time.perf_counter() - tick
+            raise PipelineError(f"stage {name} failed after {seconds:.0f} s: {exc}") from exc
         outcomes.append(outcome)
         if outcome.status == "cached":
             print(f"cached (key {outcome.key}): {outcome.made}")
@@ -126,7 +123,7 @@ def _run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _print_table(outcomes: list, total: float) -> None:
+def _print_table(outcomes: list[Outcome], total: float) -> None:
     print(f"\n{'stage':<10} {'status':<7} {'time':>7}  {'output':<34} made")
     for o in outcomes:
         when = f"{o.seconds:.0f} s" if o.status == "ran" else "-"

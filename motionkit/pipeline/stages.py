@@ -4,6 +4,7 @@ computes its key from what it reads, then runs (or is found cached) through `run
 from __future__ import annotations
 
 import json
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -74,8 +75,6 @@ def retarget(ctx: Context) -> Outcome:
     )
 
     def work(folder: Path) -> str:
-        import os
-
         jobs = ctx.config.retarget.jobs or os.cpu_count() or 1
         results = run_retarget(clips, folder, config, jobs)
         failed = [r for r in results if r.output is None]
