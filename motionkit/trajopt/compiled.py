@@ -2,8 +2,8 @@
 
 The knot Hessian is about 440,000 scalar operations; CasADi's virtual machine evaluates it in
 about 1.9 ms, compiled code (-O1) in 0.19 ms. Compiling takes a minute or two, once: the shared
-library is cached under the robot cache folder by the hash of the generated source (weights and
-eps are parameters, so every config of a robot reuses it). MOTIONKIT_TRAJOPT_COMPILE picks the
+library is cached under the robot cache folder by a hash of the functions (weights and eps are
+parameters, so every config of a robot reuses it). MOTIONKIT_TRAJOPT_COMPILE picks the
 optimisation flag (default -O1; -O0 compiles in ~15 s and runs ~2.5x faster than the virtual
 machine); 0, or no C compiler, keeps the functions in the virtual machine.
 """
@@ -11,6 +11,8 @@ machine); 0, or no C compiler, keeps the functions in the virtual machine.
 from __future__ import annotations
 
 import hashlib
+import inspect
+import json
 import os
 import shutil
 import subprocess
@@ -41,42 +43,57 @@ def _source(functions: Sequence[cs.Function], name: str) -> str:
     return generator.dump()
 
 
-def _build(cc: str, flags: list[str], source: str, library: Path) -> None:
+def _build(cc: str, flags: list[str], functions: Sequence[cs.Function], library: Path) -> None:
     with tempfile.TemporaryDirectory(dir=library.parent) as tmp:
         c_file, so_file = Path(tmp) / "functions.c", Path(tmp) / library.name
-        c_file.write_text(source)
+        c_file.write_text(_source(functions, "functions"))
         subprocess.run([cc, *flags, str(c_file), "-o", str(so_file)], check=True)
+        names = [function.name() for function in functions]
+        _names_file(library).write_text(json.dumps(names))
         os.replace(so_file, library)  # atomic: a concurrent process sees all or nothing
 
 
+def _names_file(library: Path) -> Path:
+    return library.with_suffix(".json")
+
+
 def compile_groups(
-    groups: Sequence[Sequence[cs.Function]], log: Callable[[str], None] | None = None
+    bases: Sequence[cs.Function],
+    derive: Callable[[cs.Function], Sequence[cs.Function]],
+    log: Callable[[str], None] | None = None,
 ) -> list[list[cs.Function]]:
-    """Each group of functions as one compiled library (groups build in parallel), or the
-    functions unchanged when no compiler is available."""
+    """For each base function, the group [base, *derive(base)] as one compiled library (groups
+    build in parallel), or uncompiled when no compiler is available. A library is keyed by the
+    base function's expression graph, the code of `derive`, CasADi's version and the flags, so
+    a cached one is loaded without building the derivatives or their source (~3 s)."""
     cc, level = compiler(), optimisation()
     if cc is None or level is None:
-        return [list(group) for group in groups]
+        return [[base, *derive(base)] for base in bases]
     flags = [level, "-fPIC", "-shared"]
     folder = cache_dir() / "trajopt_compiled"
     folder.mkdir(parents=True, exist_ok=True)
-    libraries: list[Path] = []
-    missing: list[tuple[str, Path]] = []
-    for group in groups:
-        source = _source(group, "functions")
-        digest = hashlib.sha256((source + " ".join(flags)).encode()).hexdigest()[:16]
-        library = folder / f"{group[0].name()}_{digest}.so"
-        libraries.append(library)
-        if not library.exists():
-            missing.append((source, library))
+    recipe = inspect.getsource(derive) + cs.__version__ + " ".join(flags)
+
+    def key(base: cs.Function) -> str:
+        return hashlib.sha256((base.serialize() + recipe).encode()).hexdigest()[:16]
+
+    libraries = [folder / f"{base.name()}_{key(base)}.so" for base in bases]
+    missing = [
+        ([base, *derive(base)], library)
+        for base, library in zip(bases, libraries, strict=True)
+        if not library.exists()
+    ]
     if missing:
         if log:
-            names = ", ".join(lib.name for _, lib in missing)
+            names = ", ".join(library.name for _, library in missing)
             log(f"compiling the problem's derivatives to C, once per robot (1-2 min): {names}")
         with ThreadPoolExecutor(max_workers=len(missing)) as pool:
             list(pool.map(lambda item: _build(cc, flags, *item), missing))
     return [
         # finite differences only so that CasADi's wrapper can build (never call) derivatives
-        [cs.external(function.name(), str(library), {"enable_fd": True}) for function in group]
-        for group, library in zip(groups, libraries, strict=True)
+        [
+            cs.external(name, str(library), {"enable_fd": True})
+            for name in json.loads(_names_file(library).read_text())
+        ]
+        for library in libraries
     ]

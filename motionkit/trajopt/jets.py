@@ -10,6 +10,7 @@ idle, 222-237 N full), with poles near -1.9 and -4.3 rad/s around mid-range.
 
 from __future__ import annotations
 
+import functools
 from typing import TypeVar
 
 import numpy as np
@@ -43,6 +44,7 @@ def steady_thrust(throttle: float) -> float:
     return float(grid[crossing[0]])
 
 
+@functools.cache
 def steady_throttle(thrust: float) -> float:
     """The throttle [%] that holds a thrust [N] steady (bisection; clipped to 0-100 %)."""
     low, high = 0.0, 100.0

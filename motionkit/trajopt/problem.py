@@ -10,6 +10,7 @@ Scenarios add bounds on knot variables through `bound` and `fix`.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from typing import Any
 
@@ -21,6 +22,9 @@ from motionkit.trajopt.compiled import compile_groups
 from motionkit.trajopt.config import TrajoptConfig
 from motionkit.trajopt.dynamics import ProblemFunctions
 from motionkit.trajopt.layout import KnotLayout
+
+# threads for the term functions (IPOPT itself and MUMPS run on one)
+THREADS = int(os.environ.get("MOTIONKIT_TRAJOPT_THREADS", min(2, os.cpu_count() or 1)))
 
 
 def _derivatives(function: cs.Function) -> tuple[cs.Function, ...]:
@@ -37,6 +41,13 @@ def _derivatives(function: cs.Function) -> tuple[cs.Function, ...]:
         cs.Function(f"{name}_jac", inputs, [cs.jacobian(g, z)]),
         cs.Function(f"{name}_hess", [*inputs, sigma, lam], [hessian]),
     )
+
+
+def _mapped(function: cs.Function, count: int) -> cs.Function:
+    """`count` copies of a term function, evaluated on `THREADS` threads."""
+    if THREADS > 1:
+        return function.map(count, "thread", THREADS)
+    return function.map(count, "serial")
 
 
 class Problem:
@@ -146,15 +157,12 @@ class Problem:
         dt = x[-1]
         Z = cs.vertcat(W[:, :-1], W[:, 1:], cs.repmat(dt, 1, n - 1))
         (knot, knot_grad, knot_jac, knot_hess), (interval, int_grad, int_jac, int_hess) = (
-            compile_groups(
-                [[fn.knot, *_derivatives(fn.knot)], [fn.interval, *_derivatives(fn.interval)]],
-                log,
-            )
+            compile_groups([fn.knot, fn.interval], _derivatives, log)
         )
 
         def objective_and_constraints(knot: cs.Function, interval: cs.Function) -> list[cs.MX]:
-            g_knot, c_knot = knot.map(n, "serial")(W, p)
-            g_int, c_int = interval.map(n - 1, "serial")(Z, p)
+            g_knot, c_knot = _mapped(knot, n)(W, p)
+            g_int, c_int = _mapped(interval, n - 1)(Z, p)
             f = (cs.sum2(c_knot) + cs.sum2(c_int)) / n
             return [f, cs.vertcat(cs.vec(g_knot), cs.vec(g_int))]
 
@@ -173,10 +181,10 @@ class Problem:
         int_rows = [n * ng_knot + k * ng_int + np.arange(ng_int) for k in range(n - 1)]
 
         # gradient of f
-        grad_int = int_grad.map(n - 1, "serial")(Z, p)
+        grad_int = _mapped(int_grad, n - 1)(Z, p)
         pad = cs.MX.zeros(size, 1)
         grad_w = (
-            knot_grad.map(n, "serial")(W, p)
+            _mapped(knot_grad, n)(W, p)
             + cs.horzcat(grad_int[:size, :], pad)
             + cs.horzcat(pad, grad_int[size : 2 * size, :])
         )
@@ -185,8 +193,8 @@ class Problem:
         # Jacobian of g
         jac_knot = Scatter(knot_jac.sparsity_out(0), knot_rows, knot_cols, (ng, nx))
         jac_int = Scatter(int_jac.sparsity_out(0), int_rows, int_cols, (ng, nx))
-        jac = jac_knot(knot_jac.map(n, "serial")(W, p))
-        jac += jac_int(int_jac.map(n - 1, "serial")(Z, p))
+        jac = jac_knot(_mapped(knot_jac, n)(W, p))
+        jac += jac_int(_mapped(int_jac, n - 1)(Z, p))
 
         # Hessian of the Lagrangian (upper triangle)
         sigma, lam = cs.MX.sym("sigma"), cs.MX.sym("lam", ng)
@@ -194,8 +202,8 @@ class Problem:
         lam_int = cs.reshape(lam[n * ng_knot :], ng_int, n - 1)
         hess_knot = Scatter(knot_hess.sparsity_out(0), knot_cols, knot_cols, (nx, nx))
         hess_int = Scatter(int_hess.sparsity_out(0), int_cols, int_cols, (nx, nx))
-        hess = hess_knot(knot_hess.map(n, "serial")(W, p, sigma / n, lam_knot)) + hess_int(
-            int_hess.map(n - 1, "serial")(Z, p, sigma / n, lam_int)
+        hess = hess_knot(_mapped(knot_hess, n)(W, p, sigma / n, lam_knot)) + hess_int(
+            _mapped(int_hess, n - 1)(Z, p, sigma / n, lam_int)
         )
         options = {
             "grad_f": cs.Function("grad_f", [x, p], [f, grad]),

@@ -1,0 +1,39 @@
+"""The compiled-function cache: a cached library is loaded without rebuilding the derivatives,
+and its functions give the values of the uncompiled ones."""
+
+from __future__ import annotations
+
+import casadi as cs
+import numpy as np
+import pytest
+
+from motionkit.trajopt import compiled
+
+
+def _derive(function: cs.Function) -> list[cs.Function]:
+    _derive.calls += 1  # type: ignore[attr-defined]
+    x = cs.SX.sym("x", 2)
+    return [cs.Function(f"{function.name()}_jac", [x], [cs.jacobian(function(x), x)])]
+
+
+def test_cached_library_loads_without_deriving(tmp_path, monkeypatch) -> None:
+    if compiled.compiler() is None:
+        pytest.skip("no C compiler")
+    monkeypatch.setattr(compiled, "cache_dir", lambda: tmp_path)
+    x = cs.SX.sym("x", 2)
+    base = cs.Function("square", [x], [cs.vertcat(x[0] ** 2, x[0] * x[1])])
+    _derive.calls = 0  # type: ignore[attr-defined]
+    first = compiled.compile_groups([base], _derive)[0]
+    assert _derive.calls == 1  # type: ignore[attr-defined]
+    again = compiled.compile_groups([base], _derive)[0]
+    assert _derive.calls == 1  # type: ignore[attr-defined]
+    point = np.array([3.0, -2.0])
+    for group in (first, again):
+        assert [f.name() for f in group] == ["square", "square_jac"]
+        np.testing.assert_allclose(np.array(group[0](point)).ravel(), [9.0, -6.0])
+        np.testing.assert_allclose(np.array(group[1](point)), [[6.0, 0.0], [-2.0, 3.0]])
+    # a different expression graph is a different library
+    other = cs.Function("square", [x], [cs.vertcat(x[0] ** 2, x[0] + x[1])])
+    compiled.compile_groups([other], _derive)
+    assert _derive.calls == 2  # type: ignore[attr-defined]
+    assert len(list((tmp_path / "trajopt_compiled").glob("square_*.so"))) == 2
