@@ -1,6 +1,7 @@
 """Trajectory optimisation: the walk-to-fly problem (trajopt/walk_to_fly.toml) with N knots.
 
     OMP_NUM_THREADS=1 python benchmarks/bench_trajopt.py [--knots 100] [--baseline NAME]
+        [--repeat 3]
 
 Target (issue 5, 2-core dev machine): N = 100 solved to IPOPT's tolerance in <= 60 s. For
 reference the published solver took about 27.5 min (HSL ma97, limited-memory Hessian). The
@@ -25,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import statistics
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -39,7 +41,8 @@ from motionkit.trajopt.solve import Prepared
 RECIPE = Path(__file__).resolve().parents[1] / "trajopt" / "walk_to_fly.toml"
 
 
-def run(label: str, config: TrajoptConfig, kinematics: RobotKinematics) -> None:
+def run(label: str, config: TrajoptConfig, kinematics: RobotKinematics) -> float | None:
+    """Solve once and print the figures; the wall time [s], or None when it failed."""
     robot = kinematics.robot
     start = time.perf_counter()
     prepared = Prepared(robot, config, kinematics)
@@ -48,7 +51,7 @@ def run(label: str, config: TrajoptConfig, kinematics: RobotKinematics) -> None:
     except TrajoptError as exc:
         wall = time.perf_counter() - start
         print(f"{label:<24} FAILED after {wall:.1f} s: {exc}")
-        return
+        return None
     wall = time.perf_counter() - start
     checks = check_solution(solution, robot)
     steps = ", ".join(f"eps {s.eps:g}: {s.iterations} it {s.seconds:.1f} s" for s in solution.steps)
@@ -64,6 +67,7 @@ def run(label: str, config: TrajoptConfig, kinematics: RobotKinematics) -> None:
         f"{checks['complementarity_violation_nm']:.2g} N m, target error "
         f"{checks['target_error_m'] * 1000:.2f} mm, checks passed: {checks['passed']}"
     )
+    return wall
 
 
 def main() -> None:
@@ -75,13 +79,25 @@ def main() -> None:
         default="no-warm-start",
     )
     parser.add_argument("--max-iter", type=int, default=1000)
+    parser.add_argument(
+        "--repeat",
+        type=int,
+        default=1,
+        help="solve the main problem this many times and print the median wall time (this "
+        "machine's speed varies by ~20 %% from run to run)",
+    )
     args = parser.parse_args()
 
     config = TrajoptConfig.from_toml(RECIPE).with_scenario(knots=args.knots)
     config = replace(config, solver=replace(config.solver, print_level=0, max_iter=args.max_iter))
     kinematics = RobotKinematics(ironcub())
     print(f"walk-to-fly, N = {args.knots} knots (target <= 60 s; published: ~27.5 min)")
-    run("exact Hessian, warm", config, kinematics)
+    walls = [run("exact Hessian, warm", config, kinematics) for _ in range(args.repeat)]
+    if args.repeat > 1:
+        solved = sorted(wall for wall in walls if wall is not None)
+        figures = ", ".join(f"{wall:.1f}" for wall in solved)
+        median = f"median {statistics.median(solved):.1f} s" if solved else "none solved"
+        print(f"{'':<24} {len(solved)} of {args.repeat} solved, wall [s]: {figures}; {median}")
     baselines = {
         "limited-memory": ("limited-memory Hessian", {"hessian": "limited-memory"}),
         "no-warm-start": ("no warm start", {"warm_start": False}),
