@@ -17,7 +17,12 @@ iterations for eps 1e-4 alone; warm with interpolated multipliers, over 500), a 
 'loqo' barrier, or a 10x complementarity weight in the last step (500+, 479, 477 iterations
 instead of 313), a complementarity weight 100 or 1000 throughout (295 iterations; the cold step
 failed at 500), IPOPT's perturb_dec_fact 0.6 / 0.1 (cold step 191 / failed), MUMPS pivtol
-1e-8 with no scaling (237 iterations; per-iteration time within this machine's +-20 % noise).
+1e-8 with no scaling (237 iterations; per-iteration time within this machine's +-20 % noise),
+friction-pyramid edge magnitudes as bounded variables instead of the 3,200 pyramid rows (cold
+step failed at 500 iterations, 0.3 s each), skipping IPOPT's unregularised trial factorization
+in the cold step (a free dummy variable makes IPOPT treat the Hessian as degenerate: linear
+solve 0.28 -> 0.17 s an iteration, but 344 cold iterations), mu_target 1e-4 or 1e-3 in the
+cold step (500+), tol 1e-4 on the intermediate steps (175 warm iterations instead of 125).
 IPOPT's timing statistics: ~80 % of an iteration is the linear solve (MUMPS; in most of the cold
 step IPOPT refactors to correct the inertia), ~15 % function evaluations (on two threads).
 """
