@@ -1,6 +1,7 @@
 """Trajectory optimisation: the walk-to-fly problem (trajopt/walk_to_fly.toml) with N knots.
 
     OMP_NUM_THREADS=1 python benchmarks/bench_trajopt.py [--knots 100] [--baseline NAME]
+        [--repeat 3]
 
 Target (issue 5, 2-core dev machine): N = 100 solved to IPOPT's tolerance in <= 60 s. For
 reference the published solver took about 27.5 min (HSL ma97, limited-memory Hessian). The
@@ -16,7 +17,12 @@ iterations for eps 1e-4 alone; warm with interpolated multipliers, over 500), a 
 'loqo' barrier, or a 10x complementarity weight in the last step (500+, 479, 477 iterations
 instead of 313), a complementarity weight 100 or 1000 throughout (295 iterations; the cold step
 failed at 500), IPOPT's perturb_dec_fact 0.6 / 0.1 (cold step 191 / failed), MUMPS pivtol
-1e-8 with no scaling (237 iterations; per-iteration time within this machine's +-20 % noise).
+1e-8 with no scaling (237 iterations; per-iteration time within this machine's +-20 % noise),
+friction-pyramid edge magnitudes as bounded variables instead of the 3,200 pyramid rows (cold
+step failed at 500 iterations, 0.3 s each), skipping IPOPT's unregularised trial factorization
+in the cold step (a free dummy variable makes IPOPT treat the Hessian as degenerate: linear
+solve 0.28 -> 0.17 s an iteration, but 344 cold iterations), mu_target 1e-4 or 1e-3 in the
+cold step (500+), tol 1e-4 on the intermediate steps (175 warm iterations instead of 125).
 IPOPT's timing statistics: ~80 % of an iteration is the linear solve (MUMPS; in most of the cold
 step IPOPT refactors to correct the inertia), ~15 % function evaluations (on two threads).
 """
@@ -25,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import statistics
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -39,7 +46,8 @@ from motionkit.trajopt.solve import Prepared
 RECIPE = Path(__file__).resolve().parents[1] / "trajopt" / "walk_to_fly.toml"
 
 
-def run(label: str, config: TrajoptConfig, kinematics: RobotKinematics) -> None:
+def run(label: str, config: TrajoptConfig, kinematics: RobotKinematics) -> float | None:
+    """Solve once and print the figures; the wall time [s], or None when it failed."""
     robot = kinematics.robot
     start = time.perf_counter()
     prepared = Prepared(robot, config, kinematics)
@@ -48,7 +56,7 @@ def run(label: str, config: TrajoptConfig, kinematics: RobotKinematics) -> None:
     except TrajoptError as exc:
         wall = time.perf_counter() - start
         print(f"{label:<24} FAILED after {wall:.1f} s: {exc}")
-        return
+        return None
     wall = time.perf_counter() - start
     checks = check_solution(solution, robot)
     steps = ", ".join(f"eps {s.eps:g}: {s.iterations} it {s.seconds:.1f} s" for s in solution.steps)
@@ -64,6 +72,7 @@ def run(label: str, config: TrajoptConfig, kinematics: RobotKinematics) -> None:
         f"{checks['complementarity_violation_nm']:.2g} N m, target error "
         f"{checks['target_error_m'] * 1000:.2f} mm, checks passed: {checks['passed']}"
     )
+    return wall
 
 
 def main() -> None:
@@ -75,13 +84,25 @@ def main() -> None:
         default="no-warm-start",
     )
     parser.add_argument("--max-iter", type=int, default=1000)
+    parser.add_argument(
+        "--repeat",
+        type=int,
+        default=1,
+        help="solve the main problem this many times and print the median wall time (this "
+        "machine's speed varies by ~20 %% from run to run)",
+    )
     args = parser.parse_args()
 
     config = TrajoptConfig.from_toml(RECIPE).with_scenario(knots=args.knots)
     config = replace(config, solver=replace(config.solver, print_level=0, max_iter=args.max_iter))
     kinematics = RobotKinematics(ironcub())
     print(f"walk-to-fly, N = {args.knots} knots (target <= 60 s; published: ~27.5 min)")
-    run("exact Hessian, warm", config, kinematics)
+    walls = [run("exact Hessian, warm", config, kinematics) for _ in range(args.repeat)]
+    if args.repeat > 1:
+        solved = sorted(wall for wall in walls if wall is not None)
+        figures = ", ".join(f"{wall:.1f}" for wall in solved)
+        median = f"median {statistics.median(solved):.1f} s" if solved else "none solved"
+        print(f"{'':<24} {len(solved)} of {args.repeat} solved, wall [s]: {figures}; {median}")
     baselines = {
         "limited-memory": ("limited-memory Hessian", {"hessian": "limited-memory"}),
         "no-warm-start": ("no warm start", {"warm_start": False}),

@@ -3,6 +3,9 @@ and its functions give the values of the uncompiled ones."""
 
 from __future__ import annotations
 
+import platform
+from pathlib import Path
+
 import casadi as cs
 import numpy as np
 import pytest
@@ -37,3 +40,38 @@ def test_cached_library_loads_without_deriving(tmp_path, monkeypatch) -> None:
     compiled.compile_groups([other], _derive)
     assert _derive.calls == 2  # type: ignore[attr-defined]
     assert len(list((tmp_path / "trajopt_compiled").glob("square_*.so"))) == 2
+
+
+def test_native_library_is_keyed_by_cpu(tmp_path, monkeypatch) -> None:
+    """A library built with -march=native is not reused on another CPU (a shared cache folder):
+    another CPU identity builds another library; without -march=native the CPU is not in the
+    key."""
+    if compiled.compiler() is None:
+        pytest.skip("no C compiler")
+    monkeypatch.setattr(compiled, "cache_dir", lambda: tmp_path)
+    x = cs.SX.sym("x", 2)
+    base = cs.Function("square", [x], [cs.vertcat(x[0] ** 2, x[0] * x[1])])
+    _derive.calls = 0  # type: ignore[attr-defined]
+
+    def libraries() -> int:
+        return len(list((tmp_path / "trajopt_compiled").glob("square_*.so")))
+
+    monkeypatch.setenv("MOTIONKIT_TRAJOPT_COMPILE", "-O0 -march=native")
+    for cpu, count in (("cpu A", 1), ("cpu A", 1), ("cpu B", 2)):
+        monkeypatch.setattr(compiled, "cpu_identity", lambda cpu=cpu: cpu)
+        group = compiled.compile_groups([base], _derive)[0]
+        np.testing.assert_allclose(np.array(group[0]([3.0, -2.0])).ravel(), [9.0, -6.0])
+        assert libraries() == count
+    monkeypatch.setenv("MOTIONKIT_TRAJOPT_COMPILE", "-O0")
+    for cpu, count in (("cpu A", 3), ("cpu B", 3)):
+        monkeypatch.setattr(compiled, "cpu_identity", lambda cpu=cpu: cpu)
+        compiled.compile_groups([base], _derive)
+        assert libraries() == count
+    assert _derive.calls == 3  # type: ignore[attr-defined]
+
+
+def test_cpu_identity_names_this_machine() -> None:
+    identity = compiled.cpu_identity()
+    assert platform.machine() in identity
+    if Path("/proc/cpuinfo").exists():
+        assert "flags" in identity or "model name" in identity
