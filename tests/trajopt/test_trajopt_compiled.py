@@ -19,13 +19,18 @@ def _derive(function: cs.Function) -> list[cs.Function]:
     return [cs.Function(f"{function.name()}_jac", [x], [cs.jacobian(function(x), x)])]
 
 
-def test_cached_library_loads_without_deriving(tmp_path, monkeypatch) -> None:
+@pytest.fixture
+def base(tmp_path, monkeypatch) -> cs.Function:
+    """(x0^2, x0 x1), compiled into an empty cache folder; _derive's call count reset."""
     if compiled.compiler() is None:
         pytest.skip("no C compiler")
     monkeypatch.setattr(compiled, "cache_dir", lambda: tmp_path)
-    x = cs.SX.sym("x", 2)
-    base = cs.Function("square", [x], [cs.vertcat(x[0] ** 2, x[0] * x[1])])
     _derive.calls = 0  # type: ignore[attr-defined]
+    x = cs.SX.sym("x", 2)
+    return cs.Function("square", [x], [cs.vertcat(x[0] ** 2, x[0] * x[1])])
+
+
+def test_cached_library_loads_without_deriving(base, tmp_path) -> None:
     first = compiled.compile_groups([base], _derive)[0]
     assert _derive.calls == 1  # type: ignore[attr-defined]
     again = compiled.compile_groups([base], _derive)[0]
@@ -36,22 +41,17 @@ def test_cached_library_loads_without_deriving(tmp_path, monkeypatch) -> None:
         np.testing.assert_allclose(np.array(group[0](point)).ravel(), [9.0, -6.0])
         np.testing.assert_allclose(np.array(group[1](point)), [[6.0, 0.0], [-2.0, 3.0]])
     # a different expression graph is a different library
+    x = cs.SX.sym("x", 2)
     other = cs.Function("square", [x], [cs.vertcat(x[0] ** 2, x[0] + x[1])])
     compiled.compile_groups([other], _derive)
     assert _derive.calls == 2  # type: ignore[attr-defined]
     assert len(list((tmp_path / "trajopt_compiled").glob("square_*.so"))) == 2
 
 
-def test_native_library_is_keyed_by_cpu(tmp_path, monkeypatch) -> None:
+def test_native_library_is_keyed_by_cpu(base, tmp_path, monkeypatch) -> None:
     """A library built with -march=native is not reused on another CPU (a shared cache folder):
     another CPU identity builds another library; without -march=native the CPU is not in the
     key."""
-    if compiled.compiler() is None:
-        pytest.skip("no C compiler")
-    monkeypatch.setattr(compiled, "cache_dir", lambda: tmp_path)
-    x = cs.SX.sym("x", 2)
-    base = cs.Function("square", [x], [cs.vertcat(x[0] ** 2, x[0] * x[1])])
-    _derive.calls = 0  # type: ignore[attr-defined]
 
     def libraries() -> int:
         return len(list((tmp_path / "trajopt_compiled").glob("square_*.so")))
