@@ -1,7 +1,7 @@
 """Per-knot functions compiled to C: CasADi generates the code, the system C compiler builds it.
 
 The knot Hessian is about 440,000 scalar operations; CasADi's virtual machine evaluates it in
-about 1.9 ms, compiled code (-O1) in 0.19 ms, and -O1 -march=native (the default: fused
+about 1.9 ms, compiled code (-O1) in 0.19 ms, and -O1 -march=native (the default on x86-64: fused
 multiply-adds and vector registers of this CPU) about 40 % faster again at the same compile time.
 Compiling takes a minute or two, once: the shared library is cached under the robot cache folder
 by a hash of the functions (weights and eps are parameters, so every config of a robot reuses
@@ -28,10 +28,13 @@ import casadi as cs
 
 from motionkit.robot.model import cache_dir
 
+# -march=native on x86-64, where GCC and Clang both take it; plain -O1 elsewhere
+DEFAULT_FLAGS = "-O1 -march=native" if platform.machine() in ("x86_64", "AMD64") else "-O1"
+
 
 def optimisation() -> list[str] | None:
     """The compiler's optimisation flags, or None: do not compile."""
-    flags = os.environ.get("MOTIONKIT_TRAJOPT_COMPILE", "-O1 -march=native")
+    flags = os.environ.get("MOTIONKIT_TRAJOPT_COMPILE", DEFAULT_FLAGS)
     return None if flags == "0" else flags.split()
 
 
@@ -79,8 +82,9 @@ def compile_groups(
 ) -> list[list[cs.Function]]:
     """For each base function, the group [base, *derive(base)] as one compiled library (groups
     build in parallel), or uncompiled when no compiler is available. A library is keyed by the
-    base function's expression graph, the code of `derive`, CasADi's version and the flags, so
-    a cached one is loaded without building the derivatives or their source (~3 s)."""
+    base function's expression graph, the code of `derive`, CasADi's version, the flags and for
+    -march=native the CPU, so a cached one is loaded without building the derivatives or their
+    source (~3 s)."""
     cc, optimise = compiler(), optimisation()
     if cc is None or optimise is None:
         return [[base, *derive(base)] for base in bases]
