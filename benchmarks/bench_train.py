@@ -104,6 +104,7 @@ def main() -> None:
     parser.add_argument("--time-to-policy", action="store_true", help="train until walk-and-fly")
     parser.add_argument("--priors", default="walk,flight", help="for --time-to-policy")
     parser.add_argument("--minutes", type=float, default=TARGET_MINUTES)
+    parser.add_argument("--out", type=Path, help="keep the time-to-policy run here (metrics CSV)")
     args = parser.parse_args()
     gpu = args.device == "gpu"
     if gpu and jax.default_backend() != "gpu":
@@ -130,8 +131,12 @@ def main() -> None:
         )
     if args.time_to_policy:
         names = [n for n in args.priors.split(",") if n and n != "none"]
-        with tempfile.TemporaryDirectory() as folder:
-            time_to_policy(config.select_priors(names), args.minutes, Path(folder) / "run")
+        config = config.select_priors(names)
+        if args.out:
+            time_to_policy(config, args.minutes, args.out)
+        else:
+            with tempfile.TemporaryDirectory() as folder:
+                time_to_policy(config, args.minutes, Path(folder) / "run")
 
 
 if __name__ == "__main__":
