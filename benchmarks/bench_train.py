@@ -113,21 +113,21 @@ def main() -> None:
     baseline = args.baseline_batch or (256 if gpu else 8)
     config = TrainConfig.from_toml(args.config)
     print(f"{args.config.name}; jax {jax.__version__} on {jax.devices()[0].device_kind}")
-    rows = []
-    for label, size in (("baseline", baseline), ("batch", batch)):
+    rates = {}
+    for label, size in (("batch", batch), ("baseline", baseline)):  # the target figure first
         whole, rollout, compile_s = training_rate(sized(config, size), args.iterations)
-        rows.append((label, size, whole, rollout, compile_s))
+        rates[label] = whole
         print(
             f"  {label:<8} {size:>6} envs: training {whole:>10,.0f} env-steps/s, rollout alone "
             f"{rollout:>10,.0f} env-steps/s (first iteration incl. compile {compile_s:.0f} s)",
             flush=True,
         )
-    speedup = rows[1][2] / rows[0][2]
+    speedup = rates["batch"] / rates["baseline"]
     print(f"  training throughput x{speedup:.1f} from {baseline} to {batch} environments")
     if gpu and batch == 4096:
         print(
             f"  target >= {TARGET_STEPS:,} env-steps/s at 4,096 envs: "
-            f"{verdict(rows[1][2] >= TARGET_STEPS)}"
+            f"{verdict(rates['batch'] >= TARGET_STEPS)}"
         )
     if args.time_to_policy:
         names = [n for n in args.priors.split(",") if n and n != "none"]
