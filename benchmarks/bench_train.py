@@ -82,7 +82,11 @@ def time_to_policy(config: TrainConfig, minutes: float, out: Path) -> None:
             and e["eval_falls_per_episode"] < 0.5
         )
 
-    run = replace(config.run, max_minutes=minutes, eval_every=50, iterations=100_000)
+    # evaluations span a whole episode, so that "waypoints per episode" can reach 2
+    chunks = -(-config.env.max_steps // config.ppo.rollout_steps)
+    run = replace(
+        config.run, max_minutes=minutes, eval_every=150, eval_rollouts=chunks, iterations=100_000
+    )
     start = time.perf_counter()
     summary = train(replace(config, run=run), out, ironcub(), stop=walks_and_flies)
     seconds = time.perf_counter() - start
