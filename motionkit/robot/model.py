@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 from dataclasses import dataclass, replace
 from functools import cached_property, lru_cache
 from pathlib import Path
@@ -16,6 +17,8 @@ from motionkit.errors import RobotModelError
 from motionkit.outputs import write_text_atomic
 from motionkit.robot.spec import THRUST_AXIS, RobotSpec
 from motionkit.robot.urdf import RobotModel, load_urdf
+
+_MESH_FOLDER = re.compile(r'(filename=")[^"]*[/\\]')  # a mesh path up to its file name
 
 
 @dataclass(frozen=True)
@@ -65,8 +68,11 @@ class Robot:
 
     @cached_property
     def model_hash(self) -> str:
-        """Content hash of the robot (URDF text and spec), the key of every cached export."""
-        digest = hashlib.sha256(self.urdf_text.encode())
+        """Content hash of the robot (URDF tree and spec), the key of every cached export and
+        the robot a clip was made for. Mesh files count by name, not by folder, and the header
+        is left out, so the hash is the same on every installation and motionkit version."""
+        text = _MESH_FOLDER.sub(r"\1", self.model.to_urdf())
+        digest = hashlib.sha256(text.encode())
         digest.update(repr(replace(self.spec, source="")).encode())
         return digest.hexdigest()[:16]
 

@@ -16,7 +16,7 @@ from motionkit.train.spatial import quat_to_matrix
 from motionkit.train.train import Learner, Trainer
 
 FIELDS = ("done", "truncated", "hit", "airborne", "feet_down", "thrust", "task_reward")
-FIELDS += ("qpos", "qvel", "target")
+FIRST_ONLY = ("qpos", "qvel", "target")  # kept for environment 0 alone: its clip is saved
 
 
 def evaluate(
@@ -26,11 +26,13 @@ def evaluate(
     Figures per episode count the episodes still running at the end as (partial) episodes."""
     k_reset, k_run = jax.random.split(key)
     state = trainer.reset(jax.random.split(k_reset, trainer.config.ppo.num_envs))
-    parts: dict[str, list[np.ndarray]] = {name: [] for name in FIELDS}
+    parts: dict[str, list[np.ndarray]] = {name: [] for name in FIELDS + FIRST_ONLY}
     for k in jax.random.split(k_run, chunks):
         state, batch = trainer.rollout(learner, state, k, jnp.array(0.0))
         for name in FIELDS:
             parts[name].append(np.asarray(getattr(batch, name)))
+        for name in FIRST_ONLY:
+            parts[name].append(np.asarray(getattr(batch, name)[:, :1]))
     arrays = {name: np.concatenate(value) for name, value in parts.items()}
     done, truncated = arrays["done"], arrays["truncated"]
     steps, envs = done.shape

@@ -114,3 +114,23 @@ def test_exports_are_cached_by_content_hash(toy_robot_files: tuple[Path, Path]) 
     other_urdf.write_text(toy_biped_urdf(elbow_mass=0.7))
     other = load_robot(other_urdf, toy_robot_files[1])
     assert other.model_hash != robot.model_hash and other.mjcf_path() != path
+
+
+def test_model_hash_ignores_where_the_meshes_are_installed(tmp_path: Path) -> None:
+    """Clips made on one machine load on another: the hash keys on mesh names, not folders."""
+
+    def with_mesh(path: str) -> str:
+        visual = f'<visual><geometry><mesh filename="{path}"/></geometry></visual>'
+        return toy_biped_urdf().replace('<link name="pelvis">', f'<link name="pelvis">{visual}')
+
+    hashes = []
+    for folder, path in (
+        ("a", "/opt/venv/share/toy/meshes/pelvis.stl"),
+        ("b", "/home/me/.local/share/toy/meshes/pelvis.stl"),
+        ("c", "/opt/venv/share/toy/meshes/pelvis_v2.stl"),
+    ):
+        (tmp_path / folder).mkdir()
+        robot = load_robot(*_write(tmp_path / folder, with_mesh(path)))
+        assert path in robot.urdf_text  # exports keep the full path
+        hashes.append(robot.model_hash)
+    assert hashes[0] == hashes[1] != hashes[2]
