@@ -6,25 +6,30 @@
 Target (issue 5, 2-core dev machine): N = 100 solved to IPOPT's tolerance in <= 60 s. For
 reference the published solver took about 27.5 min (HSL ma97, limited-memory Hessian). The
 baseline in the same run is the same problem with a limited-memory Hessian, without the warm
-start of the complementarity homotopy, or with the derivatives left uncompiled. The first run
-on a machine also compiles the derivatives to C (1-2 min, cached; in "build"). Prints problem
-size, iterations, wall time and residuals of each. The recipe sets the homotopy eps 1e-2, 1e-4,
-2e-5, 4e-6, 1e-6 and IPOPT's 'loqo' barrier oracle for the cold first step (the recipe gives
-the reasons): 232 IPOPT iterations (107 + 28 + 25 + 55 + 17) where 1e-2, 1e-4, 1e-5, 1e-6 took
-295 and 1e-2, 1e-6 with the default oracle 645. Tried and left out (measured, issue 5): a
-coarse solve at 50 knots interpolated as the guess (the cold 100-knot solve from it took 295
-iterations for eps 1e-4 alone; warm with interpolated multipliers, over 500), a monotone or
-'loqo' barrier, or a 10x complementarity weight in the last step (500+, 479, 477 iterations
-instead of 313), a complementarity weight 100 or 1000 throughout (295 iterations; the cold step
-failed at 500), IPOPT's perturb_dec_fact 0.6 / 0.1 (cold step 191 / failed), MUMPS pivtol
-1e-8 with no scaling (237 iterations; per-iteration time within this machine's +-20 % noise),
-friction-pyramid edge magnitudes as bounded variables instead of the 3,200 pyramid rows (cold
-step failed at 500 iterations, 0.3 s each), skipping IPOPT's unregularised trial factorization
-in the cold step (a free dummy variable makes IPOPT treat the Hessian as degenerate: linear
-solve 0.28 -> 0.17 s an iteration, but 344 cold iterations), mu_target 1e-4 or 1e-3 in the
-cold step (500+), tol 1e-4 on the intermediate steps (175 warm iterations instead of 125).
-IPOPT's timing statistics: ~80 % of an iteration is the linear solve (MUMPS; in most of the cold
-step IPOPT refactors to correct the inertia), ~15 % function evaluations (on two threads).
+start of the complementarity homotopy, or with the derivatives left uncompiled. The first run on
+a machine also compiles the derivatives to C (1-2 min, cached; in "build"). Prints problem size,
+iterations, wall time and residuals of each. The recipe sets the homotopy eps 1e-2, 1e-4, 2e-5,
+4e-6, 1e-6 and IPOPT's 'loqo' barrier oracle for the cold first step (the recipe gives the
+reasons); the cold step also takes the monotone mode's mu from the quality function
+(fixed_mu_oracle): 196 IPOPT iterations (68 + 26 + 20 + 65 + 17), 232 (107 + 28 + 25 + 55 + 17)
+without that, 295 with 1e-2, 1e-4, 1e-5, 1e-6 and 645 with 1e-2, 1e-6 and the default oracle.
+Tried and left out (measured, issue 5): a coarse solve at 50 knots interpolated as the guess
+(the cold 100-knot solve from it took 295 iterations for eps 1e-4 alone; warm with interpolated
+multipliers, over 500), a monotone or 'loqo' barrier, or a 10x complementarity weight in the
+last step (500+, 479, 477 iterations instead of 313), a complementarity weight 100 or 1000
+throughout (295 iterations; the cold step failed at 500), IPOPT's perturb_dec_fact 0.6 / 0.1
+(cold step 191 / failed), MUMPS pivtol 1e-8 with no scaling (237 iterations; per-iteration time
+within this machine's +-20 % noise), friction-pyramid edge magnitudes as bounded variables
+instead of the 3,200 pyramid rows (cold step failed at 500 iterations, 0.3 s each), skipping
+IPOPT's unregularised trial factorization in the cold step (a free dummy variable makes IPOPT
+treat the Hessian as degenerate: linear solve 0.28 -> 0.17 s an iteration, but 344 cold
+iterations), mu_target 1e-4 or 1e-3 in the cold step (500+), tol 1e-4 on the intermediate steps
+(175 warm iterations instead of 125). Also dropped: the quality-function fixed_mu_oracle in the
+warm steps too (203 iterations instead of 196); and, measured before it, the 'loqo' oracle in
+the warm steps too (346 instead of 232), OpenBLAS on two threads (242, no faster),
+mumps_mem_percent 100 (same path, no gain beyond noise). IPOPT's timing statistics: ~80 % of an
+iteration is the linear solve (MUMPS; in most of the cold step IPOPT refactors to correct the
+inertia), ~15 % function evaluations (on two threads).
 """
 
 from __future__ import annotations
