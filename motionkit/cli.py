@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import signal
 import sys
 from collections.abc import Sequence
@@ -127,10 +128,20 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+# a comma-separated list of numbers that starts with a minus sign, e.g. "-1,0" in --grid
+_NEGATIVE_LIST = re.compile(r"^-\.?\d[\d.eE+-]*(,[-+]?\.?\d[\d.eE+-]*)+$")
+
+
+def values_not_options(argv: Sequence[str]) -> list[str]:
+    """argparse takes "-1,0" for an option; a leading space makes it a value (float() and int()
+    ignore the space). Single negative numbers argparse recognises itself."""
+    return [f" {arg}" if _NEGATIVE_LIST.match(arg) else arg for arg in argv]
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     if hasattr(signal, "SIGPIPE"):  # `motionkit ... | head` ends quietly
         signal.signal(signal.SIGPIPE, signal.SIG_DFL)
-    args = build_parser().parse_args(argv)
+    args = build_parser().parse_args(values_not_options(sys.argv[1:] if argv is None else argv))
     try:
         return args.handler(args) or 0
     except MotionkitError as exc:

@@ -96,3 +96,20 @@ def test_missing_file_and_missing_spec_are_clear(tmp_path: Path) -> None:
     assert result.returncode == 2 and "nope.urdf: cannot read URDF" in result.stderr
     result = run("robot", "info", "--urdf", str(tmp_path / "nope.urdf"))
     assert result.returncode == 2 and "needs a robot spec TOML (--spec)" in result.stderr
+
+
+def test_negative_number_lists_are_values_not_options() -> None:
+    """`--grid -1,0 0 1,1.5` (the help's own example) parses; options and plain values do not
+    change."""
+    from motionkit.cli import build_parser, values_not_options
+
+    argv = ["trajopt", "--scenario", "takeoff", "--out", "o", "--grid", "-1,0", "0", "1,1.5"]
+    argv += ["--target", "-0.5", "-2", "1", "--quiet"]
+    protected = values_not_options(argv)
+    assert protected[6] == " -1,0" and protected[7:] == argv[7:]
+    args = build_parser().parse_args(protected)
+    axes = [[float(v) for v in axis.split(",")] for axis in args.grid]
+    assert axes == [[-1.0, 0.0], [0.0], [1.0, 1.5]]
+    assert args.target == [-0.5, -2.0, 1.0] and args.quiet
+    others = ["-x,1", "--jobs", "-1"]
+    assert values_not_options(["-1,-.5,2e-1", *others]) == [" -1,-.5,2e-1", *others]
