@@ -51,7 +51,7 @@ def training_rate(config: TrainConfig, iterations: int) -> tuple[float, float, f
     """(env-steps/s of whole iterations, env-steps/s of the rollout alone, compile seconds)."""
     robot = ironcub()
     env = make_env(config, robot)
-    trainer = Trainer(config, env, prior=None)
+    trainer = Trainer(config, env)
     learner, carry = trainer.init(0)
     start = time.perf_counter()
     learner, carry, metrics = trainer.iteration(learner, carry)

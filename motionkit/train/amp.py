@@ -81,25 +81,34 @@ def gradient_penalty(
     return jnp.mean(jax.vmap(single)(current, following))
 
 
+def kernel_norms(params: dict) -> tuple[jax.Array, jax.Array]:
+    """sum |W|^2 of the output layer's weights, and of every layer's weights (no biases)."""
+    layers = params["params"]
+    every = sum(jnp.sum(layer["kernel"] ** 2) for layer in layers.values())
+    return jnp.sum(layers["logit"]["kernel"] ** 2), every
+
+
 def discriminator_loss(
     params: dict,
     apply: callable,  # type: ignore[valid-type]
     expert: tuple[jax.Array, jax.Array],
     policy: tuple[jax.Array, jax.Array],
     gp_weight: float,
-    weight_decay: float,
+    logit_reg: float = 0.0,
+    weight_decay: float = 0.0,
 ) -> tuple[jax.Array, dict[str, jax.Array]]:
-    """BCE + gp_weight / 2 * gradient penalty at the prior samples + weight decay on the output
-    layer. Inputs are normalised features; returns the loss and its parts."""
+    """BCE + gp_weight * gradient penalty at the prior samples + logit_reg * |W_out|^2 +
+    weight_decay * sum |W|^2. Inputs are normalised features; returns the loss and its parts."""
     expert_logits = apply(params, *expert)
     policy_logits = apply(params, *policy)
     bce = bce_loss(expert_logits, policy_logits)
     penalty = gradient_penalty(apply, params, *expert)
-    decay = jnp.sum(params["params"]["logit"]["kernel"] ** 2)
-    loss = bce + 0.5 * gp_weight * penalty + weight_decay * decay
+    logit_norm, weight_norm = kernel_norms(params)
+    loss = bce + gp_weight * penalty + logit_reg * logit_norm + weight_decay * weight_norm
     metrics = {
         "disc_loss": bce,
         "disc_grad_penalty": penalty,
+        "disc_logit_norm": logit_norm,
         "disc_expert_accuracy": jnp.mean(expert_logits > 0),
         "disc_policy_accuracy": jnp.mean(policy_logits < 0),
     }
@@ -108,7 +117,9 @@ def discriminator_loss(
 
 @struct.dataclass
 class ReplayBuffer:
-    """A ring buffer of policy transitions (chi_t, chi_t+1)."""
+    """A ring buffer of policy transitions (chi_t, chi_t+1). Once full, each new transition
+    goes in with probability `keep` (replacing the oldest), so that it holds a long history
+    of the policy's motion (the AMP reference keeps 1 % of new transitions)."""
 
     current: jax.Array  # (capacity, D)
     following: jax.Array
@@ -124,15 +135,31 @@ class ReplayBuffer:
     def capacity(self) -> int:
         return self.current.shape[0]
 
-    def add(self, current: jax.Array, following: jax.Array) -> ReplayBuffer:
-        """Insert a batch (n, D), n <= capacity, overwriting the oldest."""
+    def add(
+        self,
+        current: jax.Array,
+        following: jax.Array,
+        key: jax.Array | None = None,
+        keep: float = 1.0,
+    ) -> ReplayBuffer:
+        """Insert a batch (n, D), overwriting the oldest; into a full buffer only the rows
+        kept with probability `keep` (every row when `key` is None)."""
         n = current.shape[0]
-        slots = (self.index + jnp.arange(n)) % self.capacity
+        take = jnp.ones(n, bool)
+        if key is not None and keep < 1.0:
+            sampled = jax.random.uniform(key, (n,)) < keep
+            take = jnp.where(self.size >= self.capacity, sampled, take)
+        order = jnp.cumsum(take) - 1
+        # rows not taken get an out-of-range slot, which scatter drops
+        slots = jnp.where(take, (self.index + order) % self.capacity, self.capacity)
+        if n > self.capacity:  # only the last `capacity` rows fit
+            slots = jnp.where(order >= order[-1] + 1 - self.capacity, slots, self.capacity)
+        added = jnp.minimum(take.sum(), self.capacity)
         return ReplayBuffer(
-            self.current.at[slots].set(current),
-            self.following.at[slots].set(following),
-            (self.index + n) % self.capacity,
-            jnp.minimum(self.size + n, self.capacity),
+            self.current.at[slots].set(current, mode="drop"),
+            self.following.at[slots].set(following, mode="drop"),
+            (self.index + take.sum()) % self.capacity,
+            jnp.minimum(self.size + added, self.capacity),
         )
 
     def sample(self, key: jax.Array, count: int) -> tuple[jax.Array, jax.Array]:
@@ -141,25 +168,46 @@ class ReplayBuffer:
 
 
 @struct.dataclass
+class PriorStates:
+    """The simulator state of every prior frame that starts a transition, for resets from the
+    priors (reference state initialisation); row i belongs to transition i of `PriorData`."""
+
+    qpos: jax.Array  # (N, 7 + J): base position, orientation (w, x, y, z), joints
+    qvel: jax.Array  # (N, 6 + J): base linear velocity (world), angular (base frame), joints
+    thrust: jax.Array  # (N, jets) N
+    airborne: jax.Array  # (N,) both soles above the ground
+
+
+@struct.dataclass
 class PriorData:
-    """Dataset transitions (raw features) and the cumulative probability of drawing each."""
+    """Dataset transitions (features), the cumulative probability of drawing each, and the
+    states they start from (None where unknown)."""
 
     current: jax.Array
     following: jax.Array
     cumulative: jax.Array
+    states: PriorStates | None = None
 
     @classmethod
     def create(
-        cls, current: np.ndarray, following: np.ndarray, probability: np.ndarray
+        cls,
+        current: np.ndarray,
+        following: np.ndarray,
+        probability: np.ndarray,
+        states: PriorStates | None = None,
     ) -> PriorData:
         cumulative = np.cumsum(np.asarray(probability, dtype=np.float64))
         return cls(
             jnp.asarray(current, jnp.float32),
             jnp.asarray(following, jnp.float32),
             jnp.asarray(cumulative / cumulative[-1], jnp.float32),
+            None if states is None else jax.tree.map(jnp.asarray, states),
         )
 
+    def sample_index(self, key: jax.Array, shape: tuple[int, ...]) -> jax.Array:
+        u = jax.random.uniform(key, shape)
+        return jnp.minimum(jnp.searchsorted(self.cumulative, u), self.current.shape[0] - 1)
+
     def sample(self, key: jax.Array, count: int) -> tuple[jax.Array, jax.Array]:
-        u = jax.random.uniform(key, (count,))
-        index = jnp.minimum(jnp.searchsorted(self.cumulative, u), self.current.shape[0] - 1)
+        index = self.sample_index(key, (count,))
         return self.current[index], self.following[index]

@@ -16,12 +16,31 @@ from motionkit.tomlfile import build_tables, read_toml
 
 SCENARIOS = ("flat", "terrain")
 JETS = ("ideal", "lstm")
+ACTION_MAPPINGS = ("range", "stand")
+LR_SCHEDULES = ("constant", "adaptive")
 
 
 def _positive(config: Any, names: tuple[str, ...]) -> None:
     for name in names:
         if not getattr(config, name) > 0:
             raise TrainError(f"'{name}' must be > 0, got {getattr(config, name)!r}")
+
+
+def _share(config: Any, names: tuple[str, ...]) -> None:
+    for name in names:
+        if not 0 <= getattr(config, name) <= 1:
+            raise TrainError(f"'{name}' must be in [0, 1], got {getattr(config, name)!r}")
+
+
+def _non_negative(config: Any, names: tuple[str, ...]) -> None:
+    for name in names:
+        if not getattr(config, name) >= 0:
+            raise TrainError(f"'{name}' must be >= 0, got {getattr(config, name)!r}")
+
+
+def _choice(config: Any, name: str, choices: tuple[str, ...]) -> None:
+    if getattr(config, name) not in choices:
+        raise TrainError(f"'{name}' should be one of {choices}, got {getattr(config, name)!r}")
 
 
 def _interval(config: Any, name: str, low: float = 0.0) -> None:
@@ -32,23 +51,32 @@ def _interval(config: Any, name: str, low: float = 0.0) -> None:
 
 @dataclass(frozen=True)
 class EnvConfig:
-    """The MJX environment: control, jets, waypoints, termination, terrain."""
+    """The MJX environment: control, resets, jets, waypoints, termination, terrain."""
 
     scenario: str = "flat"  # "flat" or "terrain" (rough ground, stepping stones, pits)
     control_hz: float = 60.0
     substeps: int = 4  # physics steps per control step (timestep 1 / (control_hz * substeps))
-    episode_seconds: float = 20.0
-    action_scale: float = 0.5  # rad of joint target per unit action, around the standing posture
+    episode_seconds: float = 10.0
+    # joint targets: "range": mid-range + action_scale * (joint range) * a (the AMP reference);
+    # "stand": standing posture + action_scale [rad] * a
+    action_mapping: str = "range"
+    action_scale: float = 0.7
+    reset_from_prior: float = 0.85  # chance that a reset starts in a prior frame (else standing)
     jet: str = "ideal"  # "ideal": action = thrust rate; "lstm": action = throttle (jet_model)
     jet_model: str = ""  # model.npz written by `motionkit jet-ident fit` (jet = "lstm")
     thrust_rate_max: float = 300.0  # N/s, ideal jet
-    initial_thrust: tuple[float, float] = (0.0, 0.0)  # N per jet at reset, uniform (ideal jet)
+    initial_thrust: tuple[float, float] = (0.0, 0.0)  # N per jet at a standing reset (ideal jet)
     min_base_height: float = 0.4  # m above the terrain; lower ends the episode (a fall)
     waypoint_distance: tuple[float, float] = (0.7, 2.0)  # m between consecutive waypoints
     waypoint_radius: float = 0.3  # m: a waypoint closer than this is reached
-    air_probability: float = 0.5  # chance that a new waypoint is in the air
+    # a waypoint not reached within factor * distance / v_desired + extra seconds is replaced
+    waypoint_timeout: bool = True
+    timeout_factor: float = 1.5
+    timeout_extra: float = 2.0  # s
+    air_probability: float = 0.5  # chance that a new waypoint is in the air (after the ramp)
+    air_curriculum: int = 0  # iterations over which that chance rises from 0 (0: no ramp)
     ground_height: float = 0.6  # m: base height of a waypoint on the ground (standing)
-    air_height: tuple[float, float] = (1.2, 2.0)  # m above the terrain for air waypoints
+    air_height: tuple[float, float] = (0.9, 1.5)  # m above the terrain for air waypoints
     joint_noise: float = 0.05  # rad, uniform noise on the standing posture at reset
     solver_iterations: int = 4  # MJX Newton iterations (cheap and good enough at 240 Hz)
     ls_iterations: int = 6
@@ -64,22 +92,23 @@ class EnvConfig:
         return round(self.episode_seconds * self.control_hz)
 
     def __post_init__(self) -> None:
-        if self.scenario not in SCENARIOS:
-            raise TrainError(f"'scenario' should be one of {SCENARIOS}, got {self.scenario!r}")
-        if self.jet not in JETS:
-            raise TrainError(f"'jet' should be one of {JETS}, got {self.jet!r}")
+        _choice(self, "scenario", SCENARIOS)
+        _choice(self, "jet", JETS)
+        _choice(self, "action_mapping", ACTION_MAPPINGS)
         if self.jet == "lstm" and not self.jet_model:
             raise TrainError("jet = 'lstm' needs 'jet_model', the model.npz of jet-ident fit")
         _positive(self, ("control_hz", "substeps", "episode_seconds", "action_scale"))
         _positive(self, ("thrust_rate_max", "waypoint_radius", "ground_height"))
         _positive(self, ("solver_iterations", "ls_iterations", "terrain_size"))
+        _non_negative(self, ("timeout_factor", "timeout_extra", "air_curriculum"))
+        _share(self, ("air_probability", "reset_from_prior"))
         _interval(self, "waypoint_distance", 0.0)
         _interval(self, "air_height", 0.0)
         _interval(self, "initial_thrust", 0.0)
         if self.jet == "lstm" and self.initial_thrust != (0.0, 0.0):
             raise TrainError("'initial_thrust' needs jet = 'ideal' (the LSTM starts at idle)")
-        if not 0 <= self.air_probability <= 1:
-            raise TrainError(f"'air_probability' must be in [0, 1], got {self.air_probability}")
+        if self.waypoint_timeout and self.timeout_factor + self.timeout_extra <= 0:
+            raise TrainError("a waypoint timeout needs timeout_factor or timeout_extra > 0")
 
 
 @dataclass(frozen=True)
@@ -92,34 +121,41 @@ class RewardConfig:
     w_thrust: float = 0.11  # w_T: -|T / T_max|^2
     c1: float = 0.5
     c2: float = 0.5
-    v_desired: float = 0.8  # m/s
+    v_desired: float = 0.5  # m/s (the walking priors average 0.40-0.61 m/s)
     w_task: float = 0.5  # w_G
     w_style: float = 0.5  # w_S (0 when no prior is used)
 
 
 @dataclass(frozen=True)
 class PpoConfig:
-    """PPO with an adaptive learning rate (KL target); defaults are the paper's GPU settings."""
+    """PPO; defaults are the paper's GPU settings and, where the paper is silent, the AMP
+    reference's (fixed action std, bounds loss, no value clipping, constant learning rate)."""
 
     num_envs: int = 4096
-    rollout_steps: int = 24  # steps per environment per iteration
-    epochs: int = 5
+    rollout_steps: int = 16  # steps per environment per iteration
+    epochs: int = 6
     minibatch_size: int = 32768
     gamma: float = 0.99
     lam: float = 0.95
-    learning_rate: float = 5e-5  # initial; adapted towards the KL target
+    learning_rate: float = 5e-5
+    lr_schedule: str = "constant"  # or "adaptive": towards kl_target
     kl_target: float = 0.008
     clip: float = 0.2
+    value_clip: float = 0.0  # clip of the value step around the old value (0: off)
     entropy_coef: float = 0.0
     value_coef: float = 5.0
+    bounds_coef: float = 10.0  # penalty on action means outside [-1, 1]
     max_grad_norm: float = 1.0
-    init_std: float = 1.0
+    init_std: float = 0.0550  # exp(-2.9)
+    learn_std: bool = False
     actor_hidden: tuple[int, ...] = (512, 256, 128)
     critic_hidden: tuple[int, ...] = (512, 256, 128)
 
     def __post_init__(self) -> None:
         _positive(self, ("num_envs", "rollout_steps", "epochs", "minibatch_size"))
         _positive(self, ("learning_rate", "kl_target", "clip", "init_std"))
+        _non_negative(self, ("value_clip", "entropy_coef", "value_coef", "bounds_coef"))
+        _choice(self, "lr_schedule", LR_SCHEDULES)
         if (self.num_envs * self.rollout_steps) % self.minibatch_size:
             raise TrainError(
                 f"num_envs x rollout_steps ({self.num_envs * self.rollout_steps}) must be a "
@@ -136,20 +172,29 @@ class PpoConfig:
 
 @dataclass(frozen=True)
 class AmpConfig:
-    """The discriminator on pairs (chi_t, chi_t+1) of AMP features."""
+    """The discriminator on pairs (chi_t, chi_t+1) of AMP features; defaults are the AMP
+    reference settings (IsaacGymEnvs HumanoidAMP)."""
 
     hidden: tuple[int, ...] = (1024, 512)
-    learning_rate: float = 1e-4
+    learning_rate: float = 5e-5
+    updates: int = 0  # discriminator steps per iteration (0: one per PPO minibatch)
     batch_size: int = 4096  # expert and policy pairs per discriminator step
-    gradient_penalty: float = 5.0  # weight of the penalty on |grad_x D|^2 at dataset samples
-    weight_decay: float = 1e-4  # on the discriminator's output layer (logit scale)
+    gradient_penalty: float = 5.0  # weight of |grad_x D|^2 at the dataset samples
+    logit_reg: float = 0.05  # weight of |W|^2 of the output layer
+    weight_decay: float = 1e-4  # weight of |W|^2 of every layer
     buffer_size: int = 1_000_000  # policy transitions in the replay buffer
-    style_clip: float = 10.0  # upper bound of the style reward per step
+    replay_keep: float = 0.01  # once it is full, the chance that a new transition goes in
+    style_scale: float = 2.0  # r_S = style_scale * -log(max(1 - D, 1e-4))
 
     def __post_init__(self) -> None:
-        _positive(self, ("learning_rate", "batch_size", "buffer_size", "style_clip"))
-        if self.gradient_penalty < 0 or self.weight_decay < 0:
-            raise TrainError("'gradient_penalty' and 'weight_decay' must be >= 0")
+        _positive(self, ("learning_rate", "batch_size", "buffer_size", "style_scale"))
+        _non_negative(self, ("updates", "gradient_penalty", "logit_reg", "weight_decay"))
+        if not 0 < self.replay_keep <= 1:
+            raise TrainError(f"'replay_keep' must be in (0, 1], got {self.replay_keep!r}")
+        if self.batch_size % 2:
+            raise TrainError(
+                f"'batch_size' must be even (half replay, half rollout), got {self.batch_size}"
+            )
 
 
 @dataclass(frozen=True)

@@ -2,18 +2,26 @@
 
 One environment is a pytree `EnvState`; `Env.reset(key)` and `Env.step(state, action)` are pure
 and jittable; vmap them for a batch. Control at `control_hz` with `substeps` physics steps.
-Actions (27) in [-1, 1]: 23 joint position targets (standing posture + action_scale * a, PD in
-MuJoCo) and 4 jet inputs (ideal jet: thrust rate a * thrust_rate_max; LSTM: throttle
-50 + 50 a %), stepped through `motionkit.jet_ident.step.thrust_next`.
+Actions (27) in [-1, 1]: 23 joint position targets (PD in MuJoCo; `action_mapping` "range":
+mid-range + action_scale * joint range * a, the AMP reference's; "stand": standing posture +
+action_scale * a rad) and 4 jet inputs (`motionkit.train.jets`).
+
+Resets: with probability `reset_from_prior` an episode starts in a frame of the motion priors
+(reference state initialisation): the frame's base pose moved to the spawn point and turned to
+a random heading, its velocities, joints and thrust, and the jet model resting at that thrust;
+a start with both soles off the ground gets an air waypoint. Otherwise it starts standing.
 
 Observation (all in the base's heading frame or base frame):
     heading-free base orientation (4), base linear and angular velocity (3 + 3), joint
     positions relative to standing (23) and velocities (23), end effectors relative to the base
     (4 x 3), thrust / T_max (4), height map (7 x 9 terrain heights at 0.3 m spacing relative to
     the base; on flat ground the single base height), waypoint relative to the base (3).
+The AMP features are those of `motionkit.dataset.amp_features` with the thrust as
+`Jets.feature` sees it (above idle, per T_max).
 An episode ends when the base is lower than `min_base_height` above the terrain (a fall), when
 the state is not finite, or after `episode_seconds`; `step` then starts a new one (auto-reset)
-and reports the last observation and AMP features of the ended one.
+and reports the last observation and AMP features of the ended one. A waypoint is replaced when
+reached or when its deadline passes (`motionkit.train.waypoints`).
 """
 
 from __future__ import annotations
@@ -28,14 +36,15 @@ import numpy as np
 from flax import struct
 from mujoco import mjx
 
-from motionkit.jet_ident.step import IdealThrust, LSTMThrust, initial_state, thrust_next
+from motionkit.jet_ident.step import LSTMThrust
 from motionkit.robot import Robot
 from motionkit.train import terrain as terrain_lib
 from motionkit.train import waypoints
-from motionkit.train.amp import amp_features
+from motionkit.train.amp import PriorData, amp_features
 from motionkit.train.config import EnvConfig, RewardConfig
+from motionkit.train.jets import Jets
 from motionkit.train.rewards import task_reward, task_terms
-from motionkit.train.spatial import facing_angle, quat_to_matrix, remove_heading
+from motionkit.train.spatial import facing_angle, quat_mul, quat_to_matrix, remove_heading
 
 HEIGHT_MAP = (7, 9)  # points along the facing direction x across it
 HEIGHT_CELL = 0.3  # m
@@ -49,8 +58,13 @@ class EnvState:
     thrust: jax.Array  # (jets,) N
     jet: Any  # jet model state (LSTM (c, h) per jet; () for the ideal jet)
     target: jax.Array  # (3,) current waypoint, world frame
+    target_steps: jax.Array  # control steps since the waypoint appeared
+    deadline: jax.Array  # control steps it may take
     steps: jax.Array  # control steps in this episode
     reached: jax.Array  # waypoints reached in this episode
+    origin: jax.Array  # the prior transition the episode started from (-1: standing)
+    air_share: jax.Array  # chance that a new waypoint is in the air
+    prior_share: jax.Array  # chance that a reset starts in a prior frame
     key: jax.Array
     obs: jax.Array
     chi: jax.Array  # AMP features now
@@ -67,10 +81,15 @@ class StepInfo:
     final_obs: jax.Array  # observation after the step, before any auto-reset
     chi_next: jax.Array  # AMP features after the step, before any auto-reset
     hit: jax.Array  # a waypoint was reached in this step
+    timed_out: jax.Array  # a waypoint's deadline passed in this step (it was replaced)
+    hit_steps: jax.Array  # control steps the reached waypoint took (0 without a hit)
+    approach_speed: jax.Array  # horizontal speed toward the waypoint [m/s]
     airborne: jax.Array  # both soles off the ground after the step
     feet_down: jax.Array  # (feet,) each sole on the ground after the step
+    switches: jax.Array  # (feet,) each sole touched down or lifted off in the step
     episode_steps: jax.Array  # steps of the episode so far (its length when done)
     episode_reached: jax.Array  # waypoints reached in the episode so far
+    prior_reset: jax.Array  # the episode ended and the next one starts in a prior frame
 
 
 def mjcf_text(robot: Robot, terrain: terrain_lib.Terrain | None) -> str:
@@ -91,7 +110,9 @@ def mjcf_text(robot: Robot, terrain: terrain_lib.Terrain | None) -> str:
 
 
 class Env:
-    """iRonCub in MJX with waypoint routes; a plain Python object holding static data."""
+    """iRonCub in MJX with waypoint routes; a plain Python object holding static data.
+    `prior`: the motion priors (`motionkit.train.priors.load_priors`) whose frames resets may
+    start from; `self.prior` holds them with the environment's thrust features."""
 
     def __init__(
         self,
@@ -99,6 +120,7 @@ class Env:
         config: EnvConfig,
         reward: RewardConfig | None = None,
         jet_model: LSTMThrust | None = None,
+        prior: PriorData | None = None,
     ) -> None:
         self.robot, self.config = robot, config
         self.reward_config = reward or RewardConfig()
@@ -126,30 +148,25 @@ class Env:
         self.default_q = jnp.asarray(model.key_qpos[0, 7:])
         self.ctrl_low = jnp.asarray(model.actuator_ctrlrange[:joints, 0])
         self.ctrl_high = jnp.asarray(model.actuator_ctrlrange[:joints, 1])
+        if config.action_mapping == "range":
+            self.action_offset = (self.ctrl_low + self.ctrl_high) / 2
+            self.action_scale = config.action_scale * (self.ctrl_high - self.ctrl_low)
+        else:
+            self.action_offset = self.default_q
+            self.action_scale = jnp.full(joints, config.action_scale)
         self.t_max = jnp.array([jet.t_max for jet in spec.jets])
+        self.jets = Jets(config, np.array([jet.t_max for jet in spec.jets]), jet_model)
+        standing = jnp.clip((self.default_q - self.action_offset) / self.action_scale, -1, 1)
+        # the action that holds the standing posture and the jets: where the policy starts
+        self.rest_action = jnp.concatenate(
+            [standing, jnp.full(self.num_jets, self.jets.rest_action)]
+        )
         self.forward = jnp.asarray(spec.forward)
         site = lambda name: model.site(name).id  # noqa: E731
         self.effector_sites = jnp.array([site(n) for n in spec.end_effectors])
         self.sole_sites = jnp.array([site(foot.sole) for foot in spec.feet])
         self.base_body = model.body(spec.root).id
 
-        if config.jet == "lstm":
-            if jet_model is None:
-                raise ValueError("jet = 'lstm' needs the fitted LSTM (jet_model)")
-            self.jet_steps = max(1, round(config.control_dt / jet_model.dt))
-            self.jet_params: IdealThrust | LSTMThrust = jet_model.replace(
-                dt=config.control_dt / self.jet_steps
-            )
-            per_jet = jax.vmap(lambda t: initial_state(self.jet_params, t, jnp.zeros(())))
-            self.jet_init = per_jet(jnp.zeros(self.num_jets))
-        else:
-            self.jet_steps = 1
-            self.jet_params = IdealThrust(
-                dt=config.control_dt,
-                t_max=float(spec.jets[0].t_max),
-                rate_max=config.thrust_rate_max,
-            )
-            self.jet_init = ()
         if flat:
             self.spawns = jnp.zeros((1, 2))
             self.route_bound = 1e6
@@ -162,6 +179,21 @@ class Env:
         heights = 1 if flat else HEIGHT_MAP[0] * HEIGHT_MAP[1]
         self.obs_size = 10 + 2 * joints + 3 * len(spec.end_effectors) + self.num_jets + heights + 3
         self.chi_size = 10 + 2 * joints + 3 * len(spec.end_effectors) + self.num_jets
+        self.prior = None if prior is None else self._with_thrust_features(prior)
+
+    def _with_thrust_features(self, prior: PriorData) -> PriorData:
+        """The prior with its thrust columns (the last, one per jet) as `Jets.feature`."""
+        if prior.current.shape[1] != self.chi_size:
+            raise ValueError(
+                f"prior features have {prior.current.shape[1]} columns, the environment "
+                f"{self.chi_size}"
+            )
+        jets = self.num_jets
+
+        def convert(chi: jax.Array) -> jax.Array:
+            return chi.at[:, -jets:].set(self.jets.feature(chi[:, -jets:]))
+
+        return prior.replace(current=convert(prior.current), following=convert(prior.following))
 
     # -- pieces ---------------------------------------------------------------------------------
     def _effectors(self, data: mjx.Data) -> jax.Array:
@@ -196,7 +228,8 @@ class Env:
         )
 
     def features(self, data: mjx.Data, thrust: jax.Array) -> jax.Array:
-        """The AMP features chi of the state (as motionkit.dataset.amp_features)."""
+        """The AMP features chi of the state (as motionkit.dataset.amp_features, the thrust as
+        `Jets.feature`)."""
         return amp_features(
             data.qpos[3:7],
             data.qvel[:3],
@@ -204,7 +237,7 @@ class Env:
             data.qpos[7:],
             data.qvel[6:],
             self._effectors(data),
-            thrust,
+            self.jets.feature(thrust),
             self.forward,
         )
 
@@ -214,72 +247,133 @@ class Env:
         ground = terrain_lib.height_at(self.terrain, soles[:, :2])
         return soles[:, 2] - ground <= AIRBORNE_CLEARANCE
 
-    # -- reset and step -------------------------------------------------------------------------
-    def reset(self, key: jax.Array) -> EnvState:
-        k_spawn, k_noise, k_target, k_thrust, k_next = jax.random.split(key, 5)
-        spawn = self.spawns[jax.random.randint(k_spawn, (), 0, self.spawns.shape[0])]
-        noise = jax.random.uniform(
-            k_noise,
-            (self.num_joints,),
-            minval=-self.config.joint_noise,
-            maxval=self.config.joint_noise,
+    def joint_targets(self, joint_actions: jax.Array) -> jax.Array:
+        return jnp.clip(
+            self.action_offset + self.action_scale * joint_actions, self.ctrl_low, self.ctrl_high
         )
-        joints = jnp.clip(self.default_q + noise, self.ctrl_low, self.ctrl_high)
+
+    # -- reset and step -------------------------------------------------------------------------
+    def _standing(self, key: jax.Array, spawn: jax.Array) -> tuple[jax.Array, ...]:
+        k_noise, k_thrust = jax.random.split(key)
+        noise = self.config.joint_noise
+        joints = self.default_q + jax.random.uniform(
+            k_noise, (self.num_joints,), minval=-noise, maxval=noise
+        )
+        joints = jnp.clip(joints, self.ctrl_low, self.ctrl_high)
         qpos = self.stand.qpos.at[:2].add(spawn).at[7:].set(joints)
-        data = self.stand.replace(qpos=qpos, qvel=jnp.zeros_like(self.stand.qvel))
-        data = mjx.kinematics(self.mx, data)
         low, high = self.config.initial_thrust
         thrust = jax.random.uniform(k_thrust, (self.num_jets,), minval=low, maxval=high)
-        thrust = jnp.minimum(thrust, self.t_max)
+        return qpos, jnp.zeros_like(self.stand.qvel), jnp.minimum(thrust, self.t_max)
+
+    def _prior_frame(self, index: jax.Array, key: jax.Array, spawn: jax.Array) -> tuple:
+        """(qpos, qvel, thrust, airborne) of prior frame `index`, its base moved above the
+        spawn point and turned about z by a random angle."""
+        states = self.prior.states
+        qpos, qvel = states.qpos[index], states.qvel[index]
+        yaw = jax.random.uniform(key, minval=-jnp.pi, maxval=jnp.pi)
+        turn = jnp.array([jnp.cos(yaw / 2), 0.0, 0.0, jnp.sin(yaw / 2)])
+        cos, sin = jnp.cos(yaw), jnp.sin(yaw)
+        vx, vy = qvel[0], qvel[1]
+        ground = terrain_lib.height_at(self.terrain, spawn)
+        qpos = jnp.concatenate([spawn, qpos[2:3] + ground, quat_mul(turn, qpos[3:7]), qpos[7:]])
+        qvel = qvel.at[:2].set(jnp.array([cos * vx - sin * vy, sin * vx + cos * vy]))
+        return qpos, qvel, jnp.minimum(states.thrust[index], self.t_max), states.airborne[index]
+
+    def reset(
+        self,
+        key: jax.Array,
+        air_share: jax.Array | float | None = None,
+        prior_share: jax.Array | float | None = None,
+    ) -> EnvState:
+        """A new episode. `air_share` (default: air_probability): chance of an air waypoint;
+        `prior_share` (default: reset_from_prior with priors, else 0): chance to start in a
+        prior frame."""
+        config = self.config
+        has_states = self.prior is not None and self.prior.states is not None
+        if air_share is None:
+            air_share = config.air_probability
+        if prior_share is None:
+            prior_share = config.reset_from_prior if has_states else 0.0
+        air_share = jnp.asarray(air_share, jnp.float32)
+        prior_share = jnp.asarray(prior_share, jnp.float32)
+        k_spawn, k_stand, k_target, k_pick, k_use, k_yaw, k_next = jax.random.split(key, 7)
+        spawn = self.spawns[jax.random.randint(k_spawn, (), 0, self.spawns.shape[0])]
+        qpos, qvel, thrust = self._standing(k_stand, spawn)
+        origin, airborne = jnp.array(-1, jnp.int32), jnp.array(False)
+        if has_states:
+            index = self.prior.sample_index(k_pick, ()).astype(jnp.int32)
+            frame = self._prior_frame(index, k_yaw, spawn)
+            use = jax.random.uniform(k_use) < prior_share
+            qpos, qvel, thrust = (
+                jnp.where(use, a, b) for a, b in zip(frame[:3], (qpos, qvel, thrust), strict=True)
+            )
+            origin = jnp.where(use, index, origin)
+            airborne = use & frame[3]
+        data = mjx.kinematics(self.mx, self.stand.replace(qpos=qpos, qvel=qvel))
         target = waypoints.next_waypoint(
-            k_target, qpos[:3], self.config, self.terrain, self.route_bound
+            k_target,
+            qpos[:3],
+            config,
+            self.terrain,
+            self.route_bound,
+            jnp.where(airborne, 1.0, air_share),
         )
+        zero = jnp.array(0, jnp.int32)
         return EnvState(
             data=data,
             thrust=thrust,
-            jet=self.jet_init,
+            jet=self.jets.state_at(thrust),
             target=target,
-            steps=jnp.array(0, jnp.int32),
-            reached=jnp.array(0, jnp.int32),
+            target_steps=zero,
+            deadline=self._deadline(qpos[:3], target),
+            steps=zero,
+            reached=zero,
+            origin=origin,
+            air_share=air_share,
+            prior_share=prior_share,
             key=k_next,
             obs=self.observe(data, thrust, target),
             chi=self.features(data, thrust),
         )
 
+    def _deadline(self, position: jax.Array, target: jax.Array) -> jax.Array:
+        return waypoints.deadline_steps(position, target, self.config, self.reward_config.v_desired)
+
     def _jets(self, state: EnvState, action: jax.Array) -> tuple[Any, jax.Array]:
-        if isinstance(self.jet_params, IdealThrust):
-            u = action * self.config.thrust_rate_max
-        else:
-            u = 50.0 + 50.0 * action
-        per_jet = jax.vmap(thrust_next, in_axes=(None, 0, 0, 0))
-        jet, thrust = state.jet, state.thrust
-        for _ in range(self.jet_steps):
-            jet, thrust = per_jet(self.jet_params, jet, thrust, u)
-        return jet, jnp.clip(thrust, 0.0, self.t_max)
+        return self.jets.step(state.jet, state.thrust, action)
 
     def step(self, state: EnvState, action: jax.Array) -> tuple[EnvState, StepInfo]:
         action = jnp.clip(action, -1.0, 1.0)
         joints, jets = action[: self.num_joints], action[self.num_joints :]
-        targets = jnp.clip(
-            self.default_q + self.config.action_scale * joints, self.ctrl_low, self.ctrl_high
-        )
+        feet_before = self.feet_down(state.data)
         jet, thrust = self._jets(state, jets)
-        data = state.data.replace(ctrl=jnp.concatenate([targets, thrust]))
+        data = state.data.replace(ctrl=jnp.concatenate([self.joint_targets(joints), thrust]))
         data = jax.lax.fori_loop(0, self.config.substeps, lambda _, d: mjx.step(self.mx, d), data)
 
         base, velocity = data.qpos[:3], data.qvel[:3]
         facing = quat_to_matrix(data.qpos[3:7]) @ self.forward
         terms = task_terms(
-            base, velocity, facing, state.target, thrust, self.t_max[0], self.reward_config
+            base, velocity, facing, state.target, thrust, self.t_max, self.reward_config
         )
         reward = task_reward(terms, self.reward_config)
+        offset = (state.target - base)[:2]
+        approach = jnp.dot(velocity[:2], offset) / (jnp.linalg.norm(offset) + 1e-6)
 
         key, k_target, k_reset = jax.random.split(state.key, 3)
         hit = waypoints.reached(base, state.target, self.config.waypoint_radius)
+        target_steps = state.target_steps + 1
+        timed_out = ~hit & (target_steps >= state.deadline)
+        new = hit | timed_out
         new_target = waypoints.next_waypoint(
-            k_target, state.target, self.config, self.terrain, self.route_bound
+            k_target,
+            jnp.where(hit, state.target, base),
+            self.config,
+            self.terrain,
+            self.route_bound,
+            state.air_share,
         )
-        target = jnp.where(hit, new_target, state.target)
+        target = jnp.where(new, new_target, state.target)
+        deadline = jnp.where(new, self._deadline(base, new_target), state.deadline)
         steps, reached = state.steps + 1, state.reached + hit.astype(jnp.int32)
 
         finite = jnp.all(jnp.isfinite(data.qpos)) & jnp.all(jnp.isfinite(data.qvel))
@@ -290,6 +384,7 @@ class Env:
         obs = self.observe(data, thrust, target)
         chi = self.features(data, thrust)
         feet_down = self.feet_down(data)
+        fresh = self.reset(k_reset, state.air_share, state.prior_share)
         info = StepInfo(
             task_reward=jnp.where(finite, reward, 0.0),
             terms=terms,
@@ -298,12 +393,28 @@ class Env:
             final_obs=jnp.where(finite, obs, 0.0),
             chi_next=jnp.where(finite, chi, 0.0),
             hit=hit,
+            timed_out=timed_out,
+            hit_steps=jnp.where(hit, target_steps, 0),
+            approach_speed=jnp.where(finite, approach, 0.0),
             airborne=~jnp.any(feet_down),
             feet_down=feet_down,
+            switches=feet_down != feet_before,
             episode_steps=steps,
             episode_reached=reached,
+            prior_reset=done & (fresh.origin >= 0),
         )
-        stepped = EnvState(data, thrust, jet, target, steps, reached, key, obs, chi)
-        fresh = self.reset(k_reset)
+        stepped = state.replace(
+            data=data,
+            thrust=thrust,
+            jet=jet,
+            target=target,
+            target_steps=jnp.where(new, 0, target_steps),
+            deadline=deadline,
+            steps=steps,
+            reached=reached,
+            key=key,
+            obs=obs,
+            chi=chi,
+        )
         state = jax.tree.map(lambda a, b: jnp.where(done, a, b), fresh, stepped)
         return state, info

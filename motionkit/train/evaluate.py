@@ -1,5 +1,5 @@
-"""Evaluation: deterministic rollouts of the policy from fresh episodes, their figures, and the
-first episode of environment 0 as a motion clip (MCAP) for the viewer."""
+"""Evaluation: deterministic rollouts of the policy from standing starts, their figures (task,
+gait, flight), and the first episode of environment 0 as a motion clip (MCAP) for the viewer."""
 
 from __future__ import annotations
 
@@ -15,17 +15,30 @@ from motionkit.robot import Robot
 from motionkit.train.spatial import quat_to_matrix
 from motionkit.train.train import Learner, Trainer
 
-FIELDS = ("done", "truncated", "hit", "airborne", "feet_down", "thrust", "task_reward")
+FIELDS = (
+    "done",
+    "truncated",
+    "hit",
+    "timed_out",
+    "hit_steps",
+    "approach_speed",
+    "airborne",
+    "feet_down",
+    "switches",
+    "thrust",
+    "task_reward",
+)
 FIRST_ONLY = ("qpos", "qvel", "target")  # kept for environment 0 alone: its clip is saved
 
 
 def evaluate(
     trainer: Trainer, learner: Learner, key: jax.Array, chunks: int
 ) -> tuple[dict[str, float], dict[str, np.ndarray]]:
-    """`chunks` rollouts of rollout_steps without action noise from freshly reset environments.
-    Figures per episode count the episodes still running at the end as (partial) episodes."""
+    """`chunks` rollouts of rollout_steps without action noise from standing starts (episodes
+    that end restart standing). Figures per episode count the episodes still running at the
+    end as (partial) episodes."""
     k_reset, k_run = jax.random.split(key)
-    state = trainer.reset(jax.random.split(k_reset, trainer.config.ppo.num_envs))
+    state = trainer.reset_standing(jax.random.split(k_reset, trainer.config.ppo.num_envs))
     parts: dict[str, list[np.ndarray]] = {name: [] for name in FIELDS + FIRST_ONLY}
     for k in jax.random.split(k_run, chunks):
         state, batch = trainer.rollout(learner, state, k, jnp.array(0.0))
@@ -40,8 +53,17 @@ def evaluate(
     episodes = ended + envs
     control_hz = trainer.config.env.control_hz
     lengths = _episode_lengths(done)
+    hits = int(arrays["hit"].sum())
+    feet_down = arrays["feet_down"]
     metrics = {
-        "eval_waypoints_per_episode": float(arrays["hit"].sum() / episodes),
+        "eval_waypoints_per_episode": float(hits / episodes),
+        "eval_approach_speed": float(arrays["approach_speed"].mean()),
+        "eval_single_support_share": float((feet_down.sum(-1) == 1).mean()),
+        "eval_contact_switches_per_second": float(arrays["switches"].mean() * control_hz),
+        "eval_seconds_to_waypoint": float(arrays["hit_steps"].sum() / hits / control_hz)
+        if hits
+        else float("nan"),
+        "eval_waypoints_missed": float(arrays["timed_out"].sum() / episodes),
         "eval_airborne_share": float(arrays["airborne"].mean()),
         "eval_ground_share": float(1.0 - arrays["airborne"].mean()),
         "eval_thrust_usage": float((arrays["thrust"] / np.asarray(trainer.env.t_max)).mean()),

@@ -13,22 +13,35 @@ LOG_2PI = jnp.log(2 * jnp.pi)
 
 
 class ActorCritic(nn.Module):
-    """A Gaussian policy (MLP mean, state-independent log std) and a value MLP (ELU)."""
+    """A Gaussian policy (MLP mean, state-independent std, learned or fixed) and a value MLP
+    (ELU). The mean starts near `action_bias` (the environment's rest action)."""
 
     actions: int
     actor_hidden: Sequence[int]
     critic_hidden: Sequence[int]
     init_std: float = 1.0
+    learn_std: bool = True
+    action_bias: Sequence[float] | None = None
 
     @nn.compact
     def __call__(self, obs: jax.Array) -> tuple[jax.Array, jax.Array, jax.Array]:
         x = obs
         for width in self.actor_hidden:
             x = nn.elu(nn.Dense(width)(x))
-        mean = nn.Dense(self.actions, kernel_init=nn.initializers.normal(0.01))(x)
-        log_std = self.param(
-            "log_std", nn.initializers.constant(jnp.log(self.init_std)), (self.actions,)
+        bias = (
+            jnp.zeros(self.actions) if self.action_bias is None else jnp.asarray(self.action_bias)
         )
+        mean = nn.Dense(
+            self.actions,
+            kernel_init=nn.initializers.normal(0.01),
+            bias_init=lambda *_: bias,
+        )(x)
+        if self.learn_std:
+            log_std = self.param(
+                "log_std", nn.initializers.constant(jnp.log(self.init_std)), (self.actions,)
+            )
+        else:
+            log_std = jnp.full(self.actions, jnp.log(self.init_std))
         v = obs
         for width in self.critic_hidden:
             v = nn.elu(nn.Dense(width)(v))
@@ -84,6 +97,14 @@ def gae(
     return advantages, advantages + values
 
 
+def bounds_loss(mean: jax.Array, bound: float = 1.0) -> jax.Array:
+    """Mean over samples of sum_j (max(mean_j - bound, 0)^2 + min(mean_j + bound, 0)^2): the
+    penalty on action means outside [-bound, bound]."""
+    high = jnp.maximum(mean - bound, 0.0) ** 2
+    low = jnp.minimum(mean + bound, 0.0) ** 2
+    return jnp.sum(high + low, axis=-1).mean()
+
+
 def ppo_loss(
     mean: jax.Array,
     log_std: jax.Array,
@@ -92,22 +113,28 @@ def ppo_loss(
     clip: float,
     value_coef: float,
     entropy_coef: float,
+    value_clip: float = 0.0,
+    bounds_coef: float = 0.0,
 ) -> tuple[jax.Array, dict[str, jax.Array]]:
-    """Clipped surrogate + value_coef * clipped value loss - entropy_coef * entropy; the
-    advantages are normalised over the minibatch."""
+    """Clipped surrogate + value_coef * value loss - entropy_coef * entropy + bounds_coef *
+    bounds loss; the value step is clipped to +-value_clip around the old value when
+    value_clip > 0; the advantages are normalised over the minibatch."""
     advantages = batch["advantages"]
     advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8)
     ratio = jnp.exp(log_prob(mean, log_std, batch["actions"]) - batch["log_probs"])
     surrogate = -jnp.minimum(
         ratio * advantages, jnp.clip(ratio, 1.0 - clip, 1.0 + clip) * advantages
     ).mean()
-    clipped_value = batch["values"] + jnp.clip(value - batch["values"], -clip, clip)
-    value_loss = jnp.maximum(
-        (value - batch["returns"]) ** 2, (clipped_value - batch["returns"]) ** 2
-    ).mean()
+    value_loss = (value - batch["returns"]) ** 2
+    if value_clip > 0:
+        step = jnp.clip(value - batch["values"], -value_clip, value_clip)
+        value_loss = jnp.maximum(value_loss, (batch["values"] + step - batch["returns"]) ** 2)
+    value_loss = value_loss.mean()
     ent = entropy(log_std).mean()
-    loss = surrogate + value_coef * value_loss - entropy_coef * ent
-    return loss, {"surrogate": surrogate, "value_loss": value_loss, "entropy": ent}
+    bounds = bounds_loss(mean)
+    loss = surrogate + value_coef * value_loss - entropy_coef * ent + bounds_coef * bounds
+    parts = {"surrogate": surrogate, "value_loss": value_loss, "entropy": ent}
+    return loss, parts | {"bounds_loss": bounds}
 
 
 def adapt_learning_rate(

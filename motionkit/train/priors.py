@@ -1,15 +1,21 @@
-"""Motion priors for the discriminator: the [priors.NAME] clips of a config as AMP transition
-pairs at the control rate, each prior weighted by its `weight`."""
+"""Motion priors for the discriminator and for resets: the [priors.NAME] clips of a config as
+AMP transition pairs at the control rate, each prior weighted by its `weight`, with the state
+every transition starts from (so that an episode can start there)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from motionkit.dataset import MotionDataset
+from motionkit.dataset.amp import resample
+from motionkit.dataset.trajectory import Trajectory
 from motionkit.errors import DatasetError, TrainError
 from motionkit.robot import Robot
-from motionkit.train.amp import PriorData
+from motionkit.robot.geometry import quat_rotate_inverse, to_rotation
+from motionkit.robot.kinematics import frame_poses
+from motionkit.train.amp import PriorData, PriorStates
 from motionkit.train.config import PriorConfig
+from motionkit.train.env import AIRBORNE_CLEARANCE
 
 
 def load_priors(
@@ -18,24 +24,62 @@ def load_priors(
     """The combined dataset transitions (None without priors) and a summary per prior."""
     if not priors:
         return None, {}
-    currents, followings, probabilities, summary = [], [], [], {}
+    currents, followings, probabilities, states, summary = [], [], [], [], {}
     total_weight = sum(p.weight for p in priors.values())
     for name, prior in priors.items():
         try:
             dataset = MotionDataset(list(prior.paths))
             pairs = dataset.amp_pairs(robot, rate)
+            frames = [prior_states(t, robot, rate) for _, t in dataset.trajectories()]
         except DatasetError as exc:
             raise TrainError(f"prior '{name}': {exc}") from exc
         currents.append(pairs.current)
         followings.append(pairs.following)
         probabilities.append(pairs.probability * prior.weight / total_weight)
+        states += frames
+        airborne = np.concatenate([f.airborne for f in frames])
         summary[name] = {
             "clips": len(dataset),
             "seconds": round(dataset.duration, 3),
             "pairs": len(pairs.current),
             "weight": prior.weight,
+            "airborne_share": round(float(airborne.mean()), 4),
         }
+    combined = PriorStates(
+        *(np.concatenate([getattr(s, f) for s in states]) for f in PriorStates.__dataclass_fields__)
+    )
     data = PriorData.create(
-        np.concatenate(currents), np.concatenate(followings), np.concatenate(probabilities)
+        np.concatenate(currents),
+        np.concatenate(followings),
+        np.concatenate(probabilities),
+        combined,
     )
     return data, summary
+
+
+def prior_states(trajectory: Trajectory, robot: Robot, rate: float) -> PriorStates:
+    """The MuJoCo state of every frame of the clip at `rate` but the last (the frames that
+    start a transition): qpos, qvel (angular velocity in the base frame), thrust, airborne."""
+    clip = resample(trajectory, rate)
+    if tuple(clip.joint_names) != tuple(robot.joint_names):
+        raise DatasetError(
+            f"clip joints {list(clip.joint_names)} are not the robot's {list(robot.joint_names)}"
+        )
+    quats = clip.base_orientation.astype(float)
+    angular = quat_rotate_inverse(quats, clip.base_angular_velocity.astype(float))
+    qpos = np.concatenate([clip.base_position, quats, clip.joint_positions], axis=1)
+    qvel = np.concatenate([clip.base_linear_velocity, angular, clip.joint_velocities], axis=1)
+    soles = [foot.sole for foot in robot.spec.feet]
+    poses = frame_poses(robot.model, clip.joint_names, clip.joint_positions, soles)
+    rotation = to_rotation(quats)
+    heights = (
+        np.stack([rotation.apply(poses[:, i, :3, 3])[:, 2] for i in range(len(soles))], axis=1)
+        + clip.base_position[:, 2:3]
+    )
+    airborne = np.all(heights > AIRBORNE_CLEARANCE, axis=1)
+    return PriorStates(
+        qpos=qpos[:-1].astype(np.float32),
+        qvel=qvel[:-1].astype(np.float32),
+        thrust=np.asarray(clip.thrust[:-1], np.float32),
+        airborne=airborne[:-1],
+    )

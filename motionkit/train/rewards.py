@@ -7,11 +7,14 @@ Task terms of the paper, with x_d the waypoint and p the base position (world fr
     facing    cos of the angle between the robot's facing and the direction to the waypoint,
               both projected on the ground plane
     thrust    -sum_j (T_j / T_max)^2
-Style: r_S = -log(1 - sigmoid(D(chi_t, chi_t+1))) = softplus(D), clipped at `style_clip`.
+Style: r_S = scale * -log(max(1 - sigmoid(D(chi_t, chi_t+1)), 1e-4)) = scale * min(softplus(D),
+-log 1e-4) (the AMP reference's form, scale 2).
 Total: w_G r_G + w_S r_S, with r_G = w_c target + w_v velocity + w_f facing + w_T thrust.
 """
 
 from __future__ import annotations
+
+import math
 
 import jax
 import jax.numpy as jnp
@@ -43,7 +46,7 @@ def facing_reward(facing: jax.Array, position: jax.Array, target: jax.Array) -> 
     return jnp.dot(a, b) / (jnp.linalg.norm(a) * jnp.linalg.norm(b) + EPS)
 
 
-def thrust_penalty(thrust: jax.Array, t_max: float) -> jax.Array:
+def thrust_penalty(thrust: jax.Array, t_max: jax.Array | float) -> jax.Array:
     return -jnp.sum((thrust / t_max) ** 2)
 
 
@@ -53,7 +56,7 @@ def task_terms(
     facing: jax.Array,
     target: jax.Array,
     thrust: jax.Array,
-    t_max: float,
+    t_max: jax.Array | float,  # per jet or one for all
     config: RewardConfig,
 ) -> dict[str, jax.Array]:
     """The four task terms, unweighted."""
@@ -75,9 +78,12 @@ def task_reward(terms: dict[str, jax.Array], config: RewardConfig) -> jax.Array:
     )
 
 
-def style_reward(logit: jax.Array, clip: float) -> jax.Array:
-    """-log(1 - sigmoid(logit)), computed stably as softplus(logit), at most `clip`."""
-    return jnp.minimum(jax.nn.softplus(logit), clip)
+STYLE_FLOOR = 1e-4  # the least 1 - D that the style reward takes the log of
+
+
+def style_reward(logit: jax.Array, scale: float) -> jax.Array:
+    """scale * -log(max(1 - sigmoid(logit), 1e-4)), computed stably from softplus(logit)."""
+    return scale * jnp.minimum(jax.nn.softplus(logit), -math.log(STYLE_FLOOR))
 
 
 def total_reward(task: jax.Array, style: jax.Array, w_task: float, w_style: float) -> jax.Array:

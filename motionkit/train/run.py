@@ -21,6 +21,7 @@ import numpy as np
 from motionkit.errors import TrainError
 from motionkit.outputs import write_text_atomic
 from motionkit.robot import Robot
+from motionkit.train.amp import PriorData
 from motionkit.train.checkpoint import NAME, load_checkpoint, save_checkpoint
 from motionkit.train.config import TrainConfig
 from motionkit.train.env import Env
@@ -30,7 +31,8 @@ from motionkit.train.priors import load_priors
 from motionkit.train.train import Learner, Trainer
 
 
-def make_env(config: TrainConfig, robot: Robot) -> Env:
+def make_env(config: TrainConfig, robot: Robot, prior: PriorData | None = None) -> Env:
+    """The environment of a config (with its LSTM jets loaded) and the priors it resets from."""
     jet_model = None
     if config.env.jet == "lstm":
         from motionkit.errors import JetIdentError
@@ -40,7 +42,10 @@ def make_env(config: TrainConfig, robot: Robot) -> Env:
             jet_model, _ = load_model(Path(config.env.jet_model))
         except JetIdentError as exc:
             raise TrainError(f"[env] jet_model: {exc}") from exc
-    return Env(robot, config.env, config.reward, jet_model)
+    try:
+        return Env(robot, config.env, config.reward, jet_model, prior)
+    except ValueError as exc:  # priors made for another robot layout
+        raise TrainError(str(exc)) from exc
 
 
 def train(
@@ -61,14 +66,10 @@ def train(
     if not resume and checkpoint.exists():
         raise TrainError(f"{out} holds a run already: pass --resume or another --out")
     prior, prior_summary = load_priors(config.priors, robot, config.env.control_hz)
-    env = make_env(config, robot)
-    if prior is not None and prior.current.shape[1] != env.chi_size:
-        raise TrainError(
-            f"prior features have {prior.current.shape[1]} columns, the environment {env.chi_size}"
-        )
+    env = make_env(config, robot, prior)
     out.mkdir(parents=True, exist_ok=True)
     write_text_atomic(out / "config.toml", config.to_toml())
-    trainer = Trainer(config, env, prior)
+    trainer = Trainer(config, env)
     run = config.run
     learner, carry = trainer.init(run.seed)
     if resume:

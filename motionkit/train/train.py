@@ -1,8 +1,8 @@
 """The learner: one jitted rollout (lax.scan over the vmapped environment) and one jitted
-update (style rewards, GAE, PPO epochs over minibatches with adaptive learning rate, and
-discriminator steps on prior vs replayed policy transitions).
+update (style rewards, GAE, PPO epochs over minibatches, then discriminator steps on prior
+transitions against the policy's, half from this rollout and half from the replay buffer).
 
-    trainer = Trainer(config, env, prior)        # prior: PriorData or None (no style reward)
+    trainer = Trainer(config, env)        # env.prior: PriorData or None (no style reward)
     learner, carry = trainer.init(seed)
     learner, carry, metrics = trainer.iteration(learner, carry)
 """
@@ -29,6 +29,7 @@ from motionkit.train.ppo import (
     ppo_loss,
 )
 from motionkit.train.rewards import style_reward, total_reward
+from motionkit.train.waypoints import air_share
 
 
 @struct.dataclass
@@ -73,10 +74,15 @@ class Rollout:
     chi: jax.Array
     chi_next: jax.Array
     hit: jax.Array
+    timed_out: jax.Array
+    hit_steps: jax.Array
+    approach_speed: jax.Array
     airborne: jax.Array
     feet_down: jax.Array
+    switches: jax.Array
     episode_steps: jax.Array
     episode_reached: jax.Array
+    prior_reset: jax.Array
     qpos: jax.Array
     qvel: jax.Array
     thrust: jax.Array
@@ -85,10 +91,18 @@ class Rollout:
 
 
 class Trainer:
-    def __init__(self, config: TrainConfig, env: Env, prior: PriorData | None) -> None:
-        self.config, self.env, self.prior = config, env, prior
+    def __init__(self, config: TrainConfig, env: Env) -> None:
+        self.config, self.env, self.prior = config, env, env.prior
+        prior: PriorData | None = env.prior
         ppo = config.ppo
-        self.net = ActorCritic(env.action_size, ppo.actor_hidden, ppo.critic_hidden, ppo.init_std)
+        self.net = ActorCritic(
+            env.action_size,
+            ppo.actor_hidden,
+            ppo.critic_hidden,
+            ppo.init_std,
+            ppo.learn_std,
+            tuple(float(a) for a in env.rest_action),
+        )
         self.disc = Discriminator(config.amp.hidden)
         self.policy_tx = optax.chain(
             optax.clip_by_global_norm(ppo.max_grad_norm), optax.scale_by_adam()
@@ -96,6 +110,9 @@ class Trainer:
         self.disc_tx = optax.adam(config.amp.learning_rate)
         self.use_style = prior is not None and config.reward.w_style > 0
         self.reset = jax.jit(jax.vmap(env.reset))
+        # evaluations start standing, with the task's share of air waypoints
+        standing = lambda key: env.reset(key, env.config.air_probability, 0.0)  # noqa: E731
+        self.reset_standing = jax.jit(jax.vmap(standing))
         self.rollout = jax.jit(self._rollout)
         self.update = jax.jit(self._update)
 
@@ -155,10 +172,15 @@ class Trainer:
                 "chi": chi,
                 "chi_next": info.chi_next,
                 "hit": info.hit,
+                "timed_out": info.timed_out,
+                "hit_steps": info.hit_steps,
+                "approach_speed": info.approach_speed,
                 "airborne": info.airborne,
                 "feet_down": info.feet_down,
+                "switches": info.switches,
                 "episode_steps": info.episode_steps,
                 "episode_reached": info.episode_reached,
+                "prior_reset": info.prior_reset,
                 "qpos": state.data.qpos,
                 "qvel": state.data.qvel,
                 "thrust": state.thrust,
@@ -171,6 +193,101 @@ class Trainer:
         return state, Rollout(**records, last_obs=state.obs)
 
     # -- update ---------------------------------------------------------------------------------
+    def _style(
+        self, learner: Learner, batch: Rollout, prior: PriorData, key: jax.Array
+    ) -> tuple[RunningNorm, jax.Array, jax.Array]:
+        """The AMP normaliser updated with as many prior rows as policy rows, the style reward
+        of every step and the discriminator's accuracy on this rollout's transitions."""
+        amp = self.config.amp
+        k_expert, k_policy = jax.random.split(key)
+        policy_rows = batch.chi_next.reshape(-1, learner.amp_norm.mean.size)
+        rows = jax.random.randint(k_policy, (amp.batch_size,), 0, policy_rows.shape[0])
+        expert_rows, _ = prior.sample(k_expert, amp.batch_size)
+        amp_norm = learner.amp_norm.update(jnp.concatenate([policy_rows[rows], expert_rows]))
+        logits = self.disc.apply(learner.disc, amp_norm(batch.chi), amp_norm(batch.chi_next))
+        return amp_norm, style_reward(logits, amp.style_scale), jnp.mean(logits < 0)
+
+    def _ppo_epochs(
+        self, learner: Learner, data: dict[str, jax.Array], key: jax.Array
+    ) -> tuple[Any, Any, jax.Array, dict[str, jax.Array]]:
+        ppo = self.config.ppo
+        size = data["obs"].shape[0]
+
+        def minibatch(carry: tuple, index: jax.Array) -> tuple[tuple, dict[str, jax.Array]]:
+            policy, opt, lr = carry
+            mb = jax.tree.map(lambda x: x[index], data)
+
+            def loss_fn(params: Any) -> tuple[jax.Array, dict[str, jax.Array]]:
+                mean, log_std, value = self.net.apply(params, learner.obs_norm(mb["obs"]))
+                loss, parts = ppo_loss(
+                    mean,
+                    log_std,
+                    value,
+                    mb,
+                    ppo.clip,
+                    ppo.value_coef,
+                    ppo.entropy_coef,
+                    ppo.value_clip,
+                    ppo.bounds_coef,
+                )
+                kl = gaussian_kl(mb["means"], mb["log_stds"], mean, log_std).mean()
+                return loss, {**parts, "kl": kl}
+
+            grads, parts = jax.grad(loss_fn, has_aux=True)(policy)
+            if ppo.lr_schedule == "adaptive":
+                lr = adapt_learning_rate(lr, jax.lax.stop_gradient(parts["kl"]), ppo.kl_target)
+            updates, opt = self.policy_tx.update(grads, opt, policy)
+            policy = jax.tree.map(lambda p, u: p - lr * u, policy, updates)
+            return (policy, opt, lr), parts
+
+        def epoch(carry: tuple, k: jax.Array) -> tuple[tuple, dict[str, jax.Array]]:
+            order = jax.random.permutation(k, size).reshape(ppo.minibatches, ppo.minibatch_size)
+            return jax.lax.scan(minibatch, carry, order)
+
+        start = (learner.policy, learner.policy_opt, learner.learning_rate)
+        (policy, opt, lr), parts = jax.lax.scan(epoch, start, jax.random.split(key, ppo.epochs))
+        return policy, opt, lr, jax.tree.map(jnp.ravel, parts)
+
+    def _disc_steps(
+        self,
+        learner: Learner,
+        amp_norm: RunningNorm,
+        pairs: tuple[jax.Array, jax.Array],
+        buffer: ReplayBuffer,
+        prior: PriorData,
+        key: jax.Array,
+    ) -> tuple[Any, Any, dict[str, jax.Array]]:
+        """Discriminator steps: prior pairs (label 1) against policy pairs (label 0), half of
+        them from this rollout and half from the replay buffer."""
+        amp, ppo = self.config.amp, self.config.ppo
+        count = amp.updates or ppo.epochs * ppo.minibatches
+        half = amp.batch_size // 2
+
+        def one(carry: tuple, k: jax.Array) -> tuple[tuple, dict[str, jax.Array]]:
+            disc, opt = carry
+            k_expert, k_rollout, k_replay = jax.random.split(k, 3)
+            rows = jax.random.randint(k_rollout, (half,), 0, pairs[0].shape[0])
+            replay = buffer.sample(k_replay, half)
+            policy = tuple(
+                jnp.concatenate([p[rows], r]) for p, r in zip(pairs, replay, strict=True)
+            )
+            grads, parts = jax.grad(discriminator_loss, has_aux=True)(
+                disc,
+                self.disc.apply,
+                tuple(map(amp_norm, prior.sample(k_expert, amp.batch_size))),
+                tuple(map(amp_norm, policy)),
+                amp.gradient_penalty,
+                amp.logit_reg,
+                amp.weight_decay,
+            )
+            updates, opt = self.disc_tx.update(grads, opt, disc)
+            return (optax.apply_updates(disc, updates), opt), parts
+
+        (disc, opt), parts = jax.lax.scan(
+            one, (learner.disc, learner.disc_opt), jax.random.split(key, count)
+        )
+        return disc, opt, parts
+
     def _update(
         self,
         learner: Learner,
@@ -180,14 +297,12 @@ class Trainer:
         key: jax.Array,
     ) -> tuple[Learner, ReplayBuffer, dict[str, jax.Array]]:
         config, ppo, amp = self.config, self.config.ppo, self.config.amp
-        k_norm, k_epochs = jax.random.split(key)
+        k_style, k_epochs, k_replay, k_disc = jax.random.split(key, 4)
         amp_norm = learner.amp_norm
+        metrics: dict[str, jax.Array] = {}
         if self.use_style:
-            expert_sample = prior.sample(k_norm, amp.batch_size)
-            policy_chi = batch.chi_next.reshape(-1, amp_norm.mean.size)
-            amp_norm = amp_norm.update(jnp.concatenate([policy_chi, *expert_sample]))
-            logits = self.disc.apply(learner.disc, amp_norm(batch.chi), amp_norm(batch.chi_next))
-            style = style_reward(logits, amp.style_clip)
+            amp_norm, style, rollout_accuracy = self._style(learner, batch, prior, k_style)
+            metrics["disc_policy_accuracy_rollout"] = rollout_accuracy
         else:
             style = jnp.zeros_like(batch.task_reward)
         w_style = config.reward.w_style if self.use_style else 0.0
@@ -207,60 +322,17 @@ class Trainer:
             "advantages": flat(advantages),
             "returns": flat(returns),
         }
+        policy, opt, lr, parts = self._ppo_epochs(learner, data, k_epochs)
+        disc, disc_opt = learner.disc, learner.disc_opt
         if self.use_style:
             pairs = flat(batch.chi), flat(batch.chi_next)
-            keep = min(buffer.capacity, pairs[0].shape[0])
-            buffer = buffer.add(pairs[0][-keep:], pairs[1][-keep:])
-        size = data["obs"].shape[0]
-
-        def minibatch(carry: tuple, index: jax.Array) -> tuple[tuple, dict[str, jax.Array]]:
-            policy, opt, lr, disc, disc_opt, k = carry
-            mb = jax.tree.map(lambda x: x[index], data)
-
-            def loss_fn(params: Any) -> tuple[jax.Array, dict[str, jax.Array]]:
-                mean, log_std, value = self.net.apply(params, learner.obs_norm(mb["obs"]))
-                loss, parts = ppo_loss(
-                    mean, log_std, value, mb, ppo.clip, ppo.value_coef, ppo.entropy_coef
-                )
-                kl = gaussian_kl(mb["means"], mb["log_stds"], mean, log_std).mean()
-                return loss, {**parts, "kl": kl}
-
-            grads, parts = jax.grad(loss_fn, has_aux=True)(policy)
-            lr = adapt_learning_rate(lr, jax.lax.stop_gradient(parts["kl"]), ppo.kl_target)
-            updates, opt = self.policy_tx.update(grads, opt, policy)
-            policy = jax.tree.map(lambda p, u: p - lr * u, policy, updates)
-            if self.use_style:
-                k, k_expert, k_policy = jax.random.split(k, 3)
-                expert = tuple(map(amp_norm, prior.sample(k_expert, amp.batch_size)))
-                replay = tuple(map(amp_norm, buffer.sample(k_policy, amp.batch_size)))
-                disc_grads, disc_parts = jax.grad(discriminator_loss, has_aux=True)(
-                    disc,
-                    self.disc.apply,
-                    expert,
-                    replay,
-                    amp.gradient_penalty,
-                    amp.weight_decay,
-                )
-                disc_updates, disc_opt = self.disc_tx.update(disc_grads, disc_opt, disc)
-                disc = optax.apply_updates(disc, disc_updates)
-                parts = {**parts, **disc_parts}
-            return (policy, opt, lr, disc, disc_opt, k), parts
-
-        def epoch(carry: tuple, k: jax.Array) -> tuple[tuple, dict[str, jax.Array]]:
-            order = jax.random.permutation(k, size).reshape(ppo.minibatches, ppo.minibatch_size)
-            return jax.lax.scan(minibatch, carry, order)
-
-        start = (
-            learner.policy,
-            learner.policy_opt,
-            learner.learning_rate,
-            learner.disc,
-            learner.disc_opt,
-            k_epochs,
-        )
-        (policy, opt, lr, disc, disc_opt, _), parts = jax.lax.scan(
-            epoch, start, jax.random.split(k_epochs, ppo.epochs)
-        )
+            buffer = buffer.add(*pairs, k_replay, amp.replay_keep)
+            disc, disc_opt, disc_parts = self._disc_steps(
+                learner, amp_norm, pairs, buffer, prior, k_disc
+            )
+            parts |= disc_parts
+            # the discriminator before this iteration's steps (at iteration 1: the initial one)
+            metrics |= {f"{k}_start": v[0] for k, v in disc_parts.items()}
         learner = Learner(
             policy=policy,
             policy_opt=opt,
@@ -272,36 +344,50 @@ class Trainer:
             iteration=learner.iteration + 1,
             env_steps=learner.env_steps + batch.done.size,
         )
-        metrics = {name: value.mean() for name, value in parts.items()}
-        # the discriminator before this iteration's steps (at iteration 1: the initial one)
-        metrics |= {f"{k}_start": v[0, 0] for k, v in parts.items() if k.startswith("disc_")}
+        metrics |= {name: value.mean() for name, value in parts.items()}
         metrics |= rollout_metrics(batch, self.env.t_max, self.env.config.control_hz)
         metrics |= {"style_reward": style.mean(), "reward": reward.mean(), "learning_rate": lr}
         return learner, buffer, metrics
 
     def iteration(self, learner: Learner, carry: Carry) -> tuple[Learner, Carry, dict[str, float]]:
         key, k_rollout, k_update = jax.random.split(carry.key, 3)
-        env_state, batch = self.rollout(learner, carry.env, k_rollout, jnp.array(1.0))
+        share = air_share(learner.iteration, self.env.config)
+        env_state = carry.env.replace(air_share=jnp.full_like(carry.env.air_share, share))
+        env_state, batch = self.rollout(learner, env_state, k_rollout, jnp.array(1.0))
         learner, buffer, metrics = self.update(learner, carry.buffer, batch, self.prior, k_update)
-        return learner, Carry(env_state, buffer, key), metrics
+        return learner, Carry(env_state, buffer, key), metrics | {"air_share": share}
 
 
 def rollout_metrics(batch: Rollout, t_max: jax.Array, control_hz: float) -> dict[str, jax.Array]:
     """Per-step means and per-episode figures of a rollout (episodes that ended in it; NaN
-    when none did)."""
+    when none did). The gait figures: speed toward the waypoint, the share of steps on one
+    foot, and touch-downs plus lift-offs per foot per second."""
     ended = batch.done.sum()
+    hits, missed = batch.hit.sum(), batch.timed_out.sum()
 
     def per_episode(x: jax.Array) -> jax.Array:
         total = (x * batch.done).sum() / jnp.maximum(ended, 1)
         return jnp.where(ended > 0, total, jnp.nan)
 
+    falls = (batch.done & ~batch.truncated).sum()
     out = {f"reward_{name}": value.mean() for name, value in batch.terms.items()}
     return out | {
         "task_reward": batch.task_reward.mean(),
+        "approach_speed": batch.approach_speed.mean(),
+        "single_support_share": (batch.feet_down.sum(-1) == 1).mean(),
+        "contact_switches_per_second": batch.switches.mean() * control_hz,
         "airborne_share": batch.airborne.mean(),
         "thrust_usage": (batch.thrust / t_max).mean(),
         "episodes": ended,
         "episode_seconds": per_episode(batch.episode_steps) / control_hz,
         "waypoints_per_episode": per_episode(batch.episode_reached),
-        "falls": (batch.done & ~batch.truncated).sum(),
+        "seconds_to_waypoint": jnp.where(
+            hits > 0, batch.hit_steps.sum() / jnp.maximum(hits, 1) / control_hz, jnp.nan
+        ),
+        "waypoints_missed_share": missed / jnp.maximum(hits + missed, 1),
+        "falls": falls,
+        "falls_per_episode": jnp.where(ended > 0, falls / jnp.maximum(ended, 1), jnp.nan),
+        "prior_reset_share": jnp.where(
+            ended > 0, batch.prior_reset.sum() / jnp.maximum(ended, 1), jnp.nan
+        ),
     }

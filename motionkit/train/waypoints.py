@@ -1,6 +1,8 @@
 """Waypoint routes on the ground and in the air: each new waypoint lies `waypoint_distance`
-from the previous one (3-D), on the ground (base at `ground_height` above the terrain) or, with
-probability `air_probability`, in the air (base `air_height` above the terrain)."""
+from where it is drawn from (3-D), on the ground (base at `ground_height` above the terrain) or,
+with probability `air_share`, in the air (base `air_height` above the terrain). A waypoint that
+is not reached within its deadline is replaced; the share of air waypoints can rise over the
+first iterations of training (a curriculum)."""
 
 from __future__ import annotations
 
@@ -17,11 +19,17 @@ def lift_of(terrain: Terrain, point: jax.Array) -> jax.Array:
 
 
 def next_waypoint(
-    key: jax.Array, previous: jax.Array, config: EnvConfig, terrain: Terrain, bound: float
+    key: jax.Array,
+    previous: jax.Array,
+    config: EnvConfig,
+    terrain: Terrain,
+    bound: float,
+    air_share: jax.Array | float,
 ) -> jax.Array:
-    """A waypoint (3,) following `previous`; x and y are kept within +-bound."""
+    """A waypoint (3,) following `previous`; in the air with probability `air_share`; x and y
+    are kept within +-bound."""
     k_air, k_lift, k_dist, k_angle = jax.random.split(key, 4)
-    air = jax.random.uniform(k_air) < config.air_probability
+    air = jax.random.uniform(k_air) < air_share
     low, high = config.air_height
     lift = jnp.where(air, jax.random.uniform(k_lift, minval=low, maxval=high), config.ground_height)
     distance = jax.random.uniform(
@@ -37,3 +45,24 @@ def next_waypoint(
 
 def reached(position: jax.Array, target: jax.Array, radius: float) -> jax.Array:
     return jnp.sum((target - position) ** 2) < radius**2
+
+
+def deadline_steps(
+    position: jax.Array, target: jax.Array, config: EnvConfig, v_desired: float
+) -> jax.Array:
+    """Control steps allowed to reach `target` from `position`: timeout_factor * distance /
+    v_desired + timeout_extra seconds (no limit without `waypoint_timeout`)."""
+    if not config.waypoint_timeout:
+        return jnp.array(jnp.iinfo(jnp.int32).max, jnp.int32)
+    distance = jnp.linalg.norm(target - position)
+    seconds = config.timeout_factor * distance / v_desired + config.timeout_extra
+    return jnp.ceil(seconds * config.control_hz).astype(jnp.int32)
+
+
+def air_share(iteration: jax.Array | int, config: EnvConfig) -> jax.Array:
+    """The chance of an air waypoint at a training iteration: air_probability, reached
+    linearly from 0 over the first `air_curriculum` iterations."""
+    if config.air_curriculum <= 0:
+        return jnp.asarray(config.air_probability, jnp.float32)
+    ramp = jnp.minimum(jnp.asarray(iteration, jnp.float32) / config.air_curriculum, 1.0)
+    return config.air_probability * ramp

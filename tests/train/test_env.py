@@ -50,8 +50,8 @@ def test_steps_without_nan(env, batch_fns, started) -> None:
 def test_standing_still_is_stable(env, batch_fns, started) -> None:
     _, step = batch_fns
     state = started
-    for _ in range(30):  # half a second at 60 Hz, zero action: stand under PD
-        state, info = step(state, jnp.zeros((BATCH, env.action_size)))
+    for _ in range(30):  # half a second at 60 Hz, the rest action: stand under PD
+        state, info = step(state, jnp.tile(env.rest_action, (BATCH, 1)))
     assert not np.any(np.asarray(info.done))
     np.testing.assert_allclose(np.asarray(state.data.qpos[:, 2]), 0.61, atol=0.02)
     assert np.all(np.asarray(info.feet_down)) and not np.any(np.asarray(info.airborne))
@@ -63,7 +63,7 @@ def test_fall_time_limit_and_waypoint_hit(env, batch_fns, started) -> None:
     steps = started.steps.at[1].set(env.config.max_steps - 1)  # env 1: last step
     target = started.target.at[2].set(started.data.qpos[2, :3])  # env 2: on its waypoint
     state = started.replace(data=started.data.replace(qpos=qpos), steps=steps, target=target)
-    after, info = step(state, jnp.zeros((BATCH, env.action_size)))
+    after, info = step(state, jnp.tile(env.rest_action, (BATCH, 1)))
     done, truncated, hit = map(np.asarray, (info.done, info.truncated, info.hit))
     np.testing.assert_array_equal(done, [True, True, False, False])
     np.testing.assert_array_equal(truncated, [False, True, False, False])

@@ -57,14 +57,38 @@ def test_ppo_loss_clips_the_ratio() -> None:
         "values": jnp.array([0.0, 0.0]),
         "returns": jnp.array([1.0, 1.0]),
     }
-    loss, parts = ppo.ppo_loss(
-        jnp.zeros((2, 1)), jnp.zeros((2, 1)), jnp.array([0.5, 0.1]), batch, 0.2, 5.0, 0.0
-    )
+    args = (jnp.zeros((2, 1)), jnp.zeros((2, 1)), jnp.array([0.5, 0.1]), batch, 0.2, 5.0, 0.0)
+    loss, parts = ppo.ppo_loss(*args, value_clip=0.2)
     # surrogate: -mean(min(2 * 1, 1.2 * 1), min(2 * -1, 1.2 * -1)) = -(1.2 - 2) / 2 = 0.4
     assert float(parts["surrogate"]) == pytest.approx(0.4, rel=1e-4)
     # value: clipped to +-0.2 around the old 0 -> max((0.5-1)^2, (0.2-1)^2), max(0.81, 0.81)
     assert float(parts["value_loss"]) == pytest.approx((0.64 + 0.81) / 2, rel=1e-5)
     assert float(loss) == pytest.approx(0.4 + 5.0 * 0.725, rel=1e-4)
+    # without value clipping (the default): ((0.5-1)^2 + (0.1-1)^2) / 2
+    loss, parts = ppo.ppo_loss(*args)
+    assert float(parts["value_loss"]) == pytest.approx((0.25 + 0.81) / 2, rel=1e-5)
+
+
+def test_bounds_loss_against_hand_values() -> None:
+    mean = jnp.array([[1.5, 0.0, -1.2], [0.9, -3.0, 1.0]])
+    # row 0: 0.5^2 + 0 + 0.2^2 = 0.29; row 1: 0 + 2^2 + 0 = 4; mean 2.145
+    assert float(ppo.bounds_loss(mean)) == pytest.approx(2.145, rel=1e-6)
+    batch = {
+        "actions": jnp.zeros((2, 3)),
+        "log_probs": jnp.zeros(2),
+        "advantages": jnp.array([1.0, -1.0]),
+        "values": jnp.zeros(2),
+        "returns": jnp.zeros(2),
+    }
+    plain, _ = ppo.ppo_loss(mean, jnp.zeros((2, 3)), jnp.zeros(2), batch, 0.2, 5.0, 0.0)
+    bounded, parts = ppo.ppo_loss(
+        mean, jnp.zeros((2, 3)), jnp.zeros(2), batch, 0.2, 5.0, 0.0, bounds_coef=10.0
+    )
+    assert float(parts["bounds_loss"]) == pytest.approx(2.145, rel=1e-6)
+    assert float(bounded - plain) == pytest.approx(21.45, rel=1e-5)
+    # its gradient: 2 (m - 1) above, 2 (m + 1) below, / 2 rows
+    grad = np.asarray(jax.grad(ppo.bounds_loss)(mean))
+    np.testing.assert_allclose(grad, [[0.5, 0.0, -0.2], [0.0, -2.0, 0.0]], rtol=1e-6)
 
 
 def test_adaptive_learning_rate() -> None:
@@ -82,3 +106,15 @@ def test_actor_critic_shapes() -> None:
     mean, log_std, value = net.apply(params, jnp.ones((4, 5)))
     assert mean.shape == log_std.shape == (4, 3) and value.shape == (4,)
     np.testing.assert_allclose(np.exp(np.asarray(log_std)), 0.5, rtol=1e-6)
+    assert "log_std" in params["params"]
+
+
+def test_fixed_std_and_the_initial_mean() -> None:
+    net = ppo.ActorCritic(3, (8,), (8,), init_std=math.exp(-2.9), learn_std=False,
+                          action_bias=(0.2, -0.5, -1.0))  # fmt: skip
+    params = net.init(jax.random.key(0), jnp.zeros((1, 5)))
+    assert "log_std" not in params["params"]  # not learned
+    mean, log_std, _ = net.apply(params, jnp.zeros((2, 5)))
+    np.testing.assert_allclose(np.asarray(log_std), -2.9, rtol=1e-6)
+    # zero input: the mean is the output bias, the rest action
+    np.testing.assert_allclose(np.asarray(mean), [[0.2, -0.5, -1.0]] * 2, atol=1e-6)

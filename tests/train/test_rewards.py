@@ -60,17 +60,18 @@ def test_task_reward_uses_the_paper_weights() -> None:
         config,
     )
     expected = (
-        0.1 * math.exp(-0.5 * 25.0) + 0.7 * math.exp(-0.5 * 0.2**2) + 0.2 * 0.6 + 0.11 * -(0.5**2)
+        0.1 * math.exp(-0.5 * 25.0) + 0.7 * math.exp(-0.5 * (0.5 - 1.0) ** 2) + 0.2 * 0.6 + 0.11 * -(0.5**2)
     )
     assert float(rewards.task_reward(terms, config)) == pytest.approx(expected, rel=1e-5)
 
 
-def test_style_reward_is_minus_log_one_minus_sigmoid() -> None:
+def test_style_reward_is_scaled_minus_log_one_minus_sigmoid() -> None:
     logits = jnp.array([0.0, 2.0, -3.0, 40.0])
-    value = np.asarray(rewards.style_reward(logits, 10.0))
+    value = np.asarray(rewards.style_reward(logits, 2.0))
     sigmoid = 1 / (1 + np.exp(-np.array([0.0, 2.0, -3.0])))
-    np.testing.assert_allclose(value[:3], -np.log(1 - sigmoid), rtol=1e-5)
-    assert value[3] == 10.0  # clipped (and finite where 1 - sigmoid underflows)
+    np.testing.assert_allclose(value[:3], -2.0 * np.log(1 - sigmoid), rtol=1e-5)
+    # 1 - sigmoid(40) is below the floor 1e-4: the reward is 2 * -log(1e-4) (and finite)
+    assert value[3] == pytest.approx(2.0 * math.log(1e4), rel=1e-6)
 
 
 def test_total_reward() -> None:

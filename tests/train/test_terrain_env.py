@@ -29,6 +29,6 @@ def test_terrain_reset_and_step(robot, tiny_config) -> None:
     assert np.ptp(heights, axis=1).max() > 0.01
     step = jax.jit(jax.vmap(env.step))
     for _ in range(5):
-        state, info = step(state, jnp.zeros((3, env.action_size)))
+        state, info = step(state, jnp.tile(env.rest_action, (3, 1)))
     assert np.all(np.isfinite(np.asarray(state.obs))) and not np.any(np.asarray(info.done))
     np.testing.assert_allclose(np.asarray(state.data.qpos[:, 2]), 0.61, atol=0.02)

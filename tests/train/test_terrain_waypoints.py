@@ -60,11 +60,11 @@ def test_waypoints_keep_their_spacing_and_heights() -> None:
     flat = terrain.flat()
     start = jnp.array([0.0, 0.0, config.ground_height])
     keys = jax.random.split(jax.random.key(0), 2000)
-    sample = jax.jit(jax.vmap(lambda k: waypoints.next_waypoint(k, start, config, flat, 1e6)))
+    sample = jax.jit(jax.vmap(lambda k: waypoints.next_waypoint(k, start, config, flat, 1e6, 0.3)))
     points = np.asarray(sample(keys))
     air = points[:, 2] > config.ground_height + 1e-6
     assert np.mean(air) == pytest.approx(0.3, abs=0.04)
-    assert np.all((points[air, 2] >= 1.2) & (points[air, 2] <= 2.0))
+    assert np.all((points[air, 2] >= 0.9) & (points[air, 2] <= 1.5))
     np.testing.assert_allclose(points[~air, 2], config.ground_height)
     distance = np.linalg.norm(points - np.asarray(start), axis=1)
     assert distance.min() >= 0.7 - 1e-5 and distance.max() <= 2.0 + 1e-5
@@ -75,9 +75,31 @@ def test_waypoints_stay_inside_the_bound() -> None:
     config = dataclasses.replace(EnvConfig(), air_probability=0.0)
     start = jnp.array([4.9, -4.9, config.ground_height])
     keys = jax.random.split(jax.random.key(1), 200)
-    points = jax.vmap(lambda k: waypoints.next_waypoint(k, start, config, terrain.flat(), 5.0))(
+    points = jax.vmap(lambda k: waypoints.next_waypoint(k, start, config, terrain.flat(), 5.0, 0.0))(
         keys
     )
     assert float(jnp.abs(points[:, :2]).max()) <= 5.0
     assert bool(waypoints.reached(jnp.zeros(3), jnp.array([0.2, 0.0, 0.1]), 0.3))
     assert not bool(waypoints.reached(jnp.zeros(3), jnp.array([0.3, 0.0, 0.1]), 0.3))
+
+
+def test_waypoint_deadline_against_hand_values() -> None:
+    config = EnvConfig()  # 1.5 x distance / v_desired + 2 s at 60 Hz
+    start, target = jnp.zeros(3), jnp.array([0.9, 1.2, 0.0])  # 1.5 m away
+    # 1.5 * 1.5 / 0.8 + 2 = 4.8125 s -> 288.75 -> 289 steps
+    assert int(waypoints.deadline_steps(start, target, config, 0.8)) == 289
+    # 1.5 * 1.5 / 0.5 + 2 = 6.5 s -> 390 steps
+    assert int(waypoints.deadline_steps(start, target, config, 0.5)) == 390
+    off = dataclasses.replace(config, waypoint_timeout=False)
+    assert int(waypoints.deadline_steps(start, target, off, 0.5)) == 2**31 - 1
+
+
+def test_air_waypoint_curriculum_against_hand_values() -> None:
+    ramp = EnvConfig(air_probability=0.5, air_curriculum=200)
+    shares = [float(waypoints.air_share(i, ramp)) for i in (0, 50, 100, 200, 1000)]
+    np.testing.assert_allclose(shares, [0.0, 0.125, 0.25, 0.5, 0.5], rtol=1e-6)
+    assert float(waypoints.air_share(7, EnvConfig(air_probability=0.3))) == pytest.approx(0.3)
+    keys = jax.random.split(jax.random.key(4), 1000)
+    start = jnp.array([0.0, 0.0, 0.6])
+    sample = jax.vmap(lambda k: waypoints.next_waypoint(k, start, ramp, terrain.flat(), 1e6, 0.0))
+    assert np.all(np.asarray(sample(keys))[:, 2] == pytest.approx(0.6))  # share 0: ground only

@@ -59,7 +59,7 @@ def test_discriminator_loss_gradient_against_finite_differences(small_disc) -> N
         policy = tuple(jnp.asarray(rng.normal(size=(8, 3)) + 1.0) for _ in range(2))
 
         def loss(p):
-            return amp.discriminator_loss(p, disc.apply, expert, policy, 5.0, 1e-2)[0]
+            return amp.discriminator_loss(p, disc.apply, expert, policy, 5.0, 0.05, 1e-2)[0]
 
         grads = jax.grad(loss)(params64)
         leaves, tree = jax.tree.flatten(params64)
@@ -84,6 +84,64 @@ def test_discriminator_loss_parts(small_disc) -> None:
     assert float(parts["disc_expert_accuracy"]) + float(parts["disc_policy_accuracy"]) == 1.0
 
 
+def test_logit_regularisation_and_weight_decay_against_hand_values(small_disc) -> None:
+    disc, params = small_disc
+    x = jnp.ones((2, 3))
+    layers = params["params"]
+    logit = float(np.sum(np.square(layers["logit"]["kernel"])))
+    every = sum(float(np.sum(np.square(layer["kernel"]))) for layer in layers.values())
+    assert sorted(layers) == ["Dense_0", "Dense_1", "logit"] and every > logit > 0
+    base, parts = amp.discriminator_loss(params, disc.apply, (x, x), (x, x), 0.0)
+    assert float(parts["disc_logit_norm"]) == pytest.approx(logit, rel=1e-5)
+    regularised, _ = amp.discriminator_loss(params, disc.apply, (x, x), (x, x), 0.0, 0.05, 1e-4)
+    assert float(regularised - base) == pytest.approx(0.05 * logit + 1e-4 * every, rel=1e-4)
+
+    # their gradient: 2 * (0.05 + 1e-4) W on the output layer, 2e-4 W elsewhere, 0 on biases
+    def penalty(p):
+        logit_norm, weight_norm = amp.kernel_norms(p)
+        return 0.05 * logit_norm + 1e-4 * weight_norm
+
+    grads = jax.grad(penalty)(params)["params"]
+    kernel = lambda name: np.asarray(layers[name]["kernel"])  # noqa: E731
+    np.testing.assert_allclose(grads["logit"]["kernel"], 2 * 0.0501 * kernel("logit"), rtol=1e-5)
+    np.testing.assert_allclose(grads["Dense_0"]["kernel"], 2e-4 * kernel("Dense_0"), rtol=1e-5)
+    np.testing.assert_array_equal(grads["Dense_0"]["bias"], 0.0)
+
+
+def test_gradient_penalty_enters_with_its_full_weight(small_disc) -> None:
+    disc, params = small_disc
+    rng = np.random.default_rng(2)
+    expert = tuple(jnp.asarray(rng.normal(size=(4, 3)), jnp.float32) for _ in range(2))
+    policy = tuple(jnp.asarray(rng.normal(size=(4, 3)), jnp.float32) for _ in range(2))
+    base, parts = amp.discriminator_loss(params, disc.apply, expert, policy, 0.0)
+    weighted, _ = amp.discriminator_loss(params, disc.apply, expert, policy, 5.0)
+    assert float(weighted - base) == pytest.approx(
+        5.0 * float(parts["disc_grad_penalty"]), rel=1e-4
+    )
+
+
+def test_replay_buffer_keeps_a_long_history_once_full() -> None:
+    buffer = amp.ReplayBuffer.create(1000, 1)
+    rows = jnp.zeros((1000, 1))
+    buffer = buffer.add(rows, rows, jax.random.key(0), keep=0.01)  # not full yet: all go in
+    assert int(buffer.size) == 1000 and int(buffer.index) == 0
+    new = jnp.ones((1000, 1))
+    buffer = buffer.add(new, -new, jax.random.key(1), keep=0.01)
+    kept = int(np.sum(np.asarray(buffer.current[:, 0]) == 1.0))
+    assert 2 <= kept <= 25  # about 1 % of the new rows (binomial, 1000 x 0.01)
+    assert int(buffer.index) == kept and int(buffer.size) == 1000
+    # the kept rows took the oldest slots, in order, and stay paired
+    np.testing.assert_array_equal(np.asarray(buffer.current[:kept, 0]), 1.0)
+    np.testing.assert_array_equal(np.asarray(buffer.following), -np.asarray(buffer.current))
+
+
+def test_replay_buffer_takes_the_last_rows_of_a_big_batch() -> None:
+    buffer = amp.ReplayBuffer.create(4, 1)
+    buffer = buffer.add(jnp.arange(10.0)[:, None], jnp.arange(10.0)[:, None])
+    assert sorted(np.asarray(buffer.current[:, 0]).tolist()) == [6.0, 7.0, 8.0, 9.0]
+    assert int(buffer.size) == 4
+
+
 def test_replay_buffer_overwrites_the_oldest() -> None:
     buffer = amp.ReplayBuffer.create(5, 1)
     buffer = buffer.add(jnp.arange(3.0)[:, None], -jnp.arange(3.0)[:, None])
@@ -106,7 +164,8 @@ def test_prior_samples_follow_the_probabilities() -> None:
 
 
 def test_simulator_features_equal_the_dataset_features(env, robot) -> None:
-    """chi from an MJX state equals motionkit.dataset.amp_features of the same frames."""
+    """chi from an MJX state equals motionkit.dataset.amp_features of the same frames (the
+    thrust as a share of T_max above the ideal jet's idle, 0 N)."""
     import mujoco
     from mujoco import mjx
 
@@ -116,6 +175,7 @@ def test_simulator_features_equal_the_dataset_features(env, robot) -> None:
 
     clip = synthetic_trajectory(robot, 0.5, 10.0, thrust=80.0, turn_rate=0.7, seed=3)
     expected = amp_features(clip, robot)
+    expected[:, -4:] /= 250.0  # the environment's thrust features: above idle (0 N) per T_max
     model = env.mj_model
     data = mujoco.MjData(model)
     for t in range(clip.frames):
