@@ -67,7 +67,8 @@ class Jets:
         """(thrusts, c, h): the LSTM state of a jet resting at each tabulated thrust, under the
         throttle that holds it there (from the steady-state curve)."""
         thrusts = np.linspace(0.0, float(jnp.max(self.t_max)), TABLE_SIZE)
-        throttles = np.interp(thrusts, steady, THROTTLES)
+        # at or below idle the jet rests at 0 %; where the curve is flat, within the flat part
+        throttles = np.where(thrusts <= steady[0], 0.0, np.interp(thrusts, steady, THROTTLES))
         rest = jax.vmap(lambda t, u: initial_state(self.params, t, u))
         c, h = rest(jnp.asarray(thrusts, jnp.float32), jnp.asarray(throttles, jnp.float32))
         return jnp.asarray(thrusts, jnp.float32), c, h

@@ -58,7 +58,10 @@ def train(
     stop: Callable[[dict[str, float]], bool] | None = None,
 ) -> dict[str, Any]:
     """Train (or resume) in `out`; returns the summary also written to OUT/summary.json.
-    `stop(evaluation)` ends the run early after an evaluation that satisfies it."""
+    `stop(evaluation)` ends the run early after an evaluation that satisfies it. A run stopped
+    by `max_minutes` (counted from the call, setup and compilation included) is evaluated
+    before it returns, like one that completes its iterations."""
+    start = time.perf_counter()
     out = Path(out)
     checkpoint = out / NAME
     if resume and not checkpoint.exists():
@@ -85,10 +88,10 @@ def train(
         f"scenario {config.env.scenario}, jets {config.env.jet}, priors "
         f"{', '.join(config.priors) or 'none'}; obs {env.obs_size}, actions {env.action_size}"
     )
-    start = time.perf_counter()
     summary: dict[str, Any] = {"priors": prior_summary}
     last: dict[str, float] = {}
     evaluation: dict[str, float] = {}
+    evaluated_at = -1
     steps_per_iteration = config.ppo.num_envs * config.ppo.rollout_steps
     while int(learner.iteration) < run.iterations:
         if run.max_minutes and time.perf_counter() - start > 60 * run.max_minutes:
@@ -110,17 +113,16 @@ def train(
         final = iteration >= run.iterations
         evaluated = (run.eval_every and iteration % run.eval_every == 0) or final
         if evaluated:
-            evaluation = run_evaluation(trainer, learner, robot, out, iteration)
-            log.write("eval", iteration, evaluation)
-            progress(
-                f"eval {iteration}: " + ", ".join(f"{k[5:]} {v:.3g}" for k, v in evaluation.items())
-            )
+            evaluation = _evaluate(trainer, learner, robot, out, log, progress)
+            evaluated_at = iteration
         if iteration % run.checkpoint_every == 0 or final:
             save_checkpoint(checkpoint, learner)
         if evaluated and stop is not None and stop(evaluation):
             progress(f"stop criterion met at iteration {iteration}")
             break
     save_checkpoint(checkpoint, learner)
+    if evaluated_at != int(learner.iteration) and int(learner.iteration) > 0:
+        evaluation = _evaluate(trainer, learner, robot, out, log, progress)
     log.close()
     summary |= {
         "iterations": int(learner.iteration),
@@ -129,8 +131,33 @@ def train(
         "train": last,
         "eval": evaluation,
     }
-    write_text_atomic(out / "summary.json", json.dumps(summary, indent=2, default=_json) + "\n")
+    text = json.dumps(_finite(summary), indent=2, default=_json, allow_nan=False)
+    write_text_atomic(out / "summary.json", text + "\n")
     return summary
+
+
+def _evaluate(
+    trainer: Trainer,
+    learner: Learner,
+    robot: Robot,
+    out: Path,
+    log: MetricsLog,
+    progress: Callable[[str], None],
+) -> dict[str, float]:
+    iteration = int(learner.iteration)
+    evaluation = run_evaluation(trainer, learner, robot, out, iteration)
+    log.write("eval", iteration, evaluation)
+    progress(f"eval {iteration}: " + ", ".join(f"{k[5:]} {v:.3g}" for k, v in evaluation.items()))
+    return evaluation
+
+
+def _finite(value: Any) -> Any:
+    """The summary with NaN and infinities as None (null: strict JSON)."""
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, float | np.floating) and not np.isfinite(value):
+        return None
+    return value
 
 
 def run_evaluation(
@@ -151,11 +178,13 @@ def run_evaluation(
 
 
 def _line(iteration: int, m: dict[str, float]) -> str:
+    disc = m.get("disc_policy_accuracy_rollout", float("nan"))
     return (
         f"iter {iteration}: reward {m['reward']:.3f} (task {m['task_reward']:.3f}, style "
-        f"{m['style_reward']:.3f}), episode {m['episode_seconds']:.2f} s, waypoints "
-        f"{m['waypoints_per_episode']:.2f}, airborne {m['airborne_share']:.2f}, lr "
-        f"{m['learning_rate']:.2e}, kl {m['kl']:.4f}, "
+        f"{m['style_reward']:.3f}), episode {m['episode_seconds']:.2f} s, falls/episode "
+        f"{m['falls_per_episode']:.2f}, waypoints {m['waypoints_per_episode']:.2f}, speed "
+        f"{m['approach_speed']:.2f} m/s, airborne {m['airborne_share']:.2f}, disc accuracy "
+        f"{disc:.2f}, lr {m['learning_rate']:.2e}, kl {m['kl']:.4f}, "
         f"{m['env_steps_per_second']:.0f} env-steps/s"
     )
 

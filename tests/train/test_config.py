@@ -19,7 +19,32 @@ def test_paper_recipe_has_the_paper_settings() -> None:
     assert (ppo.entropy_coef, ppo.clip, ppo.minibatch_size, ppo.value_coef) == (0, 0.2, 32768, 5)
     assert ppo.num_envs == 4096 and ppo.minibatches == 3
     assert sorted(config.priors) == ["flight", "walk"]
-    assert config.env.control_hz == 60.0 and config.env.max_steps == 1200
+    assert config.env.control_hz == 60.0 and config.env.max_steps == 600  # 10 s episodes
+
+
+def test_defaults_are_the_amp_reference_settings() -> None:
+    config = TrainConfig()
+    amp, ppo, env = config.amp, config.ppo, config.env
+    assert (amp.gradient_penalty, amp.logit_reg, amp.weight_decay) == (5.0, 0.05, 1e-4)
+    assert (amp.learning_rate, amp.style_scale, amp.replay_keep) == (5e-5, 2.0, 0.01)
+    assert amp.buffer_size == 1_000_000 and amp.hidden == (1024, 512)
+    assert (ppo.rollout_steps, ppo.epochs, ppo.lr_schedule) == (16, 6, "constant")
+    assert (ppo.value_clip, ppo.bounds_coef, ppo.learn_std) == (0.0, 10.0, False)
+    assert (env.action_mapping, env.action_scale, env.reset_from_prior) == ("range", 0.7, 0.85)
+
+
+def test_gpu_recipes() -> None:
+    walk, fly, both = (
+        TrainConfig.from_toml(RECIPES / f"{name}_gpu.toml") for name in ("walk", "fly", "walk_fly")
+    )
+    assert list(walk.priors) == ["walk"] and walk.env.air_probability == 0.0
+    assert list(fly.priors) == ["flight"] and fly.env.air_probability == 1.0
+    assert fly.env.reset_from_prior == 0.95
+    assert sorted(both.priors) == ["flight", "walk"] and both.env.air_curriculum == 300
+    for config in (walk, fly, both):
+        assert config.ppo.num_envs == 4096 and config.run.max_minutes == 7.0
+        # evaluations cover whole episodes
+        assert config.run.eval_rollouts * config.ppo.rollout_steps >= config.env.max_steps
 
 
 def test_round_trip_through_toml(tmp_path: Path) -> None:
@@ -42,6 +67,12 @@ def test_round_trip_through_toml(tmp_path: Path) -> None:
         ("[priors.walk]\npaths = ['x']\nweight = -1.0\n", "weight"),
         ("[env]\nwaypoint_distance = [2.0, 0.7]\n", "waypoint_distance"),
         ("[run]\niterations = 0\n", "iterations"),
+        ("[env]\nreset_from_prior = 1.5\n", "'reset_from_prior' must be in [0, 1]"),
+        ("[env]\naction_mapping = 'wild'\n", "action_mapping"),
+        ("[ppo]\nlr_schedule = 'cosine'\n", "lr_schedule"),
+        ("[ppo]\nvalue_clip = -0.1\n", "'value_clip' must be >= 0"),
+        ("[amp]\nreplay_keep = 0.0\n", "replay_keep"),
+        ("[amp]\nlogit_reg = nan\n", "'logit_reg' must be >= 0"),
     ],
 )
 def test_bad_configs_are_refused(tmp_path: Path, text: str, message: str) -> None:

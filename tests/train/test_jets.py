@@ -31,10 +31,10 @@ def test_lstm_jet_steps_the_fitted_model(robot, tiny_config) -> None:
     )
     config = replace(tiny_config.env, jet="lstm", jet_model="unused.npz")
     env = Env(robot, config, jet_model=params)
-    assert env.jet_steps == 2  # 1/60 s in two steps of 1/120 s (the model was fitted at 100 Hz)
+    assert env.jets.steps == 2  # 1/60 s in two steps of 1/120 s (the model was fitted at 100 Hz)
 
     class Held:
-        jet = env.jet_init
+        jet = env.jets.state_at(jnp.zeros(4))
         thrust = jnp.zeros(4)
 
     _, thrust = env._jets(Held, jnp.array([1.0, 0.0, -1.0, 0.5]))

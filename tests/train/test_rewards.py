@@ -60,7 +60,10 @@ def test_task_reward_uses_the_paper_weights() -> None:
         config,
     )
     expected = (
-        0.1 * math.exp(-0.5 * 25.0) + 0.7 * math.exp(-0.5 * (0.5 - 1.0) ** 2) + 0.2 * 0.6 + 0.11 * -(0.5**2)
+        0.1 * math.exp(-0.5 * 25.0)
+        + 0.7 * math.exp(-0.5 * (0.5 - 1.0) ** 2)
+        + 0.2 * 0.6
+        + 0.11 * -(0.5**2)
     )
     assert float(rewards.task_reward(terms, config)) == pytest.approx(expected, rel=1e-5)
 

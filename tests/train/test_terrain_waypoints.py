@@ -75,9 +75,9 @@ def test_waypoints_stay_inside_the_bound() -> None:
     config = dataclasses.replace(EnvConfig(), air_probability=0.0)
     start = jnp.array([4.9, -4.9, config.ground_height])
     keys = jax.random.split(jax.random.key(1), 200)
-    points = jax.vmap(lambda k: waypoints.next_waypoint(k, start, config, terrain.flat(), 5.0, 0.0))(
-        keys
-    )
+    points = jax.vmap(
+        lambda k: waypoints.next_waypoint(k, start, config, terrain.flat(), 5.0, 0.0)
+    )(keys)
     assert float(jnp.abs(points[:, :2]).max()) <= 5.0
     assert bool(waypoints.reached(jnp.zeros(3), jnp.array([0.2, 0.0, 0.1]), 0.3))
     assert not bool(waypoints.reached(jnp.zeros(3), jnp.array([0.3, 0.0, 0.1]), 0.3))
