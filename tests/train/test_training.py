@@ -1,6 +1,7 @@
 """A tiny seeded training run on the CPU through `motionkit.train.run.train`: the
-discriminator learns to tell the priors from the policy's (random) motion, the task reward
-rises, and the run folder has its logs, checkpoint and evaluation rollout; resume continues."""
+discriminator learns to tell the priors from the policy's (random) motion without saturating,
+the task reward rises, and the run folder has its logs, checkpoint and evaluation rollout;
+resume continues."""
 
 import csv
 import json
@@ -47,9 +48,12 @@ def test_discriminator_separates_prior_from_policy_motion(run_folder: Path) -> N
     start = 0.5 * (log["disc_expert_accuracy_start"] + log["disc_policy_accuracy_start"])
     accuracy = 0.5 * (log["disc_expert_accuracy"] + log["disc_policy_accuracy"])
     assert start[0] < 0.75  # the initial discriminator: near chance
-    assert accuracy[-10:].mean() > 0.95
-    # style reward softplus(D) of the policy's motion: about log 2 at first, then near 0
-    assert log["style_reward"][0] > 0.5 and log["style_reward"][-10:].mean() < 0.05
+    assert accuracy[:10].max() > 0.95  # it tells the random policy from the priors at once
+    # style reward 2 softplus(D): about 2 log 2 at first; the regularised discriminator does
+    # not saturate, so the style reward stays well above 0 as the policy comes closer
+    assert log["style_reward"][0] > 1.0
+    assert log["style_reward"][-10:].mean() > 0.2
+    assert log["disc_policy_accuracy_rollout"][-10:].mean() < 0.99
 
 
 def test_task_reward_rises(run_folder: Path) -> None:
