@@ -2,7 +2,7 @@
 
     python benchmarks/bench_dataset.py [--seconds 3600] [--windows 50]
 
-Targets (issue 3, on the 2-core dev machine): whole read <= 2 s, a random 2 s window <= 20 ms,
+Targets (on the 2-core dev machine): whole read <= 2 s, a random 2 s window <= 20 ms,
 file <= 1.2 x the raw float32 size of the arrays. Baselines in the same run: the official mcap
 reader decoding /motion into arrays with the protobuf library, and np.load of the raw arrays.
 motionkit's whole read also checks the file's data-section and summary CRCs.

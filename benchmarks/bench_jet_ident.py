@@ -3,7 +3,7 @@ simulator's thrust step against one MJX physics step of the robot.
 
     python benchmarks/bench_jet_ident.py [--batch 4096] [--recipe jet_ident/p250.toml] [--skip-fit]
 
-Targets (issue 6, on the 2-core dev machine): on held-out synthetic logs (profiles not used in
+Targets (on the 2-core dev machine): on held-out synthetic logs (profiles not used in
 training) the LSTM's free-run MAE <= 4.995 N and RMSE <= 8.061 N (the paper's figures), below
 both baselines fitted in the same run (second-order grey box, first-order lag), with the noise
 floor beside them; default-recipe training <= 5 minutes; one jitted `thrust_next` for the four

@@ -3,7 +3,7 @@
     python benchmarks/bench_retarget.py [CLIP ...] [--repeats 5]
 
 Clips default to the CMU walks in ../shared/mocap/cmu (give your own .bvh/.amc otherwise).
-Target (issue 4): at least 1,000 frames/s end to end on one core of the 2-core dev machine; a
+Target: at least 1,000 frames/s end to end on one core of the 2-core dev machine; a
 popular retargeter reports 35-70 frames/s. Baseline in the same run: the same pipeline solving
 each frame to convergence (20 PlaCo iterations instead of 2, as a per-frame IK without a warm
 start would need) and without self-collision avoidance. Quality figures are printed beside the

@@ -6,7 +6,7 @@ waypoints on flat ground.
     python benchmarks/bench_train.py --device gpu         # GPU: 4,096 environments vs 256
     python benchmarks/bench_train.py --device gpu --time-to-policy --priors walk,flight
 
-Targets (issue 7, one H100): at least 200,000 env-steps/s during training at 4,096
+Targets (one H100): at least 200,000 env-steps/s during training at 4,096
 environments; flat-ground walk-and-fly in at most 30 minutes. "Walks and flies" is measured by
 the periodic evaluation: at least 2 waypoints per episode, at least 10 % of the time airborne
 and 10 % on the ground, fewer than 0.5 falls per episode.

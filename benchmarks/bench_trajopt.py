@@ -3,7 +3,7 @@
     OMP_NUM_THREADS=1 python benchmarks/bench_trajopt.py [--knots 100] [--baseline NAME]
         [--repeat 3]
 
-Target (issue 5, 2-core dev machine): N = 100 solved to IPOPT's tolerance in <= 60 s. For
+Target (2-core dev machine): N = 100 solved to IPOPT's tolerance in <= 60 s. For
 reference the published solver took about 27.5 min (HSL ma97, limited-memory Hessian). The
 baseline in the same run is the same problem with a limited-memory Hessian, without the warm
 start of the complementarity homotopy, or with the derivatives left uncompiled. The first run on
