@@ -13,7 +13,7 @@ iterations, wall time and residuals of each. The recipe sets the homotopy eps 1e
 reasons); the cold step also takes the monotone mode's mu from the quality function
 (fixed_mu_oracle): 196 IPOPT iterations (68 + 26 + 20 + 65 + 17), 232 (107 + 28 + 25 + 55 + 17)
 without that, 295 with 1e-2, 1e-4, 1e-5, 1e-6 and 645 with 1e-2, 1e-6 and the default oracle.
-Tried and left out (measured, issue 5): a coarse solve at 50 knots interpolated as the guess
+Tried and left out (measured): a coarse solve at 50 knots interpolated as the guess
 (the cold 100-knot solve from it took 295 iterations for eps 1e-4 alone; warm with interpolated
 multipliers, over 500), a monotone or 'loqo' barrier, or a 10x complementarity weight in the
 last step (500+, 479, 477 iterations instead of 313), a complementarity weight 100 or 1000

@@ -2,7 +2,7 @@
 
     python benchmarks/bench_viewer.py [--seconds 600] [--frames 2000]
 
-Targets (issue 8): a 10-minute clip opens in <= 2 s; a 120 Hz clip plays at real time (one frame
+Targets: a 10-minute clip opens in <= 2 s; a 120 Hz clip plays at real time (one frame
 update well under 1/120 s = 8.3 ms). Baseline in the same run: the naive per-frame update, which
 recomputes the link poses with the model's generic forward kinematics (a dict walk with scipy
 rotations per joint), converts each link's rotation with scipy, and sends the link poses one

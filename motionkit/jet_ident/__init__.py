@@ -1,4 +1,4 @@
-"""Jet thrust identification: bench logs, LSTM model, evaluation, export (issue 6).
+"""Jet thrust identification: bench logs, LSTM model, evaluation, export.
 
     log = read_log("bench.csv")                       # checked CSV (time_s, throttle_pct, thrust_n)
     run = synthetic_run(BenchConfig(), seed=1)        # a synthetic P250 bench log

@@ -1,4 +1,4 @@
-"""Mocap readers (BVH, ASF/AMC), human skeleton kinematics, CMU clip download (issue 4).
+"""Mocap readers (BVH, ASF/AMC), human skeleton kinematics, CMU clip download.
 
     clip = load_mocap("02_01.bvh")          # metres, Z-up, leading T-pose dropped
     clip.landmarks()["l_knee"]              # (T, 3) world positions

@@ -1,1 +1,1 @@
-"""PlaCo inverse kinematics from human motion to the robot (issue 4)."""
+"""PlaCo inverse kinematics from human motion to the robot."""

@@ -1,1 +1,1 @@
-"""The slim AMP + PPO trainer on MuJoCo MJX (issue 7)."""
+"""The slim AMP + PPO trainer on MuJoCo MJX."""

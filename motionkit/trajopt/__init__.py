@@ -1,1 +1,1 @@
-"""Centroidal trajectory optimisation with contacts and jets, CasADi + IPOPT (issue 5)."""
+"""Centroidal trajectory optimisation with contacts and jets, CasADi + IPOPT."""

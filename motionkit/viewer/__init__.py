@@ -1,4 +1,4 @@
-"""The viser browser viewer (issue 8): clips, folders of clips, training runs, the robot alone.
+"""The viser browser viewer: clips, folders of clips, training runs, the robot alone.
 
     motionkit view datasets/walk            # or: motionkit view --robot
     from motionkit.viewer import ViewerApp, resolve_clips
