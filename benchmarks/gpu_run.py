@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from motionkit.errors import MotionkitError, TrainError
-from motionkit.outputs import write_text_atomic
+from motionkit.outputs import strict_json, write_text_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
 CHECKPOINT = "checkpoint.msgpack"
@@ -242,19 +242,6 @@ def _number(cell: str, integer: bool = False) -> Any:
     return int(value) if integer and value.is_integer() else value
 
 
-def strict(value: Any) -> Any:
-    """`value` made valid strict JSON: non-finite floats -> None, numpy scalars -> Python."""
-    if isinstance(value, dict):
-        return {str(k): strict(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [strict(v) for v in value]
-    if hasattr(value, "item") and callable(value.item) and getattr(value, "shape", None) == ():
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
 def row_count(path: Path) -> int:
     return len(next(iter(read_columns(path).values()), []))
 
@@ -365,7 +352,7 @@ def summary_text(report: dict[str, Any], out: Path) -> str:
 
 def write_reports(report: dict[str, Any], out: Path) -> str:
     out.mkdir(parents=True, exist_ok=True)
-    text = json.dumps(strict(report), indent=2, allow_nan=False) + "\n"
+    text = json.dumps(strict_json(report), indent=2, allow_nan=False) + "\n"
     write_text_atomic(out / "gpu_run.json", text)
     summary = summary_text(report, out)
     write_text_atomic(out / "gpu_run.txt", summary)

@@ -154,8 +154,8 @@ class Env:
         else:
             self.action_offset = self.default_q
             self.action_scale = jnp.full(joints, config.action_scale)
-        self.t_max = jnp.array([jet.t_max for jet in spec.jets])
         self.jets = Jets(config, np.array([jet.t_max for jet in spec.jets]), jet_model)
+        self.t_max = self.jets.t_max
         standing = jnp.clip((self.default_q - self.action_offset) / self.action_scale, -1, 1)
         # the action that holds the standing posture and the jets: where the policy starts
         self.rest_action = jnp.concatenate(

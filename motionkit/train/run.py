@@ -9,17 +9,15 @@ OUT/summary.json            priors, last training and evaluation figures, timing
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import jax
-import numpy as np
 
 from motionkit.errors import TrainError
-from motionkit.outputs import write_text_atomic
+from motionkit.outputs import write_json_atomic, write_text_atomic
 from motionkit.robot import Robot
 from motionkit.train.amp import PriorData
 from motionkit.train.checkpoint import NAME, load_checkpoint, save_checkpoint
@@ -131,8 +129,7 @@ def train(
         "train": last,
         "eval": evaluation,
     }
-    text = json.dumps(_finite(summary), indent=2, default=_json, allow_nan=False)
-    write_text_atomic(out / "summary.json", text + "\n")
+    write_json_atomic(out / "summary.json", summary)
     return summary
 
 
@@ -149,15 +146,6 @@ def _evaluate(
     log.write("eval", iteration, evaluation)
     progress(f"eval {iteration}: " + ", ".join(f"{k[5:]} {v:.3g}" for k, v in evaluation.items()))
     return evaluation
-
-
-def _finite(value: Any) -> Any:
-    """The summary with NaN and infinities as None (null: strict JSON)."""
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, float | np.floating) and not np.isfinite(value):
-        return None
-    return value
 
 
 def run_evaluation(
@@ -187,9 +175,3 @@ def _line(iteration: int, m: dict[str, float]) -> str:
         f"{disc:.2f}, lr {m['learning_rate']:.2e}, kl {m['kl']:.4f}, "
         f"{m['env_steps_per_second']:.0f} env-steps/s"
     )
-
-
-def _json(value: Any) -> Any:
-    if isinstance(value, np.generic):
-        return value.item()
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")

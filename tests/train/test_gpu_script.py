@@ -150,6 +150,6 @@ def test_gpu_run_budget_and_strict_json(tmp_path: Path) -> None:
     (tmp_path / "train.csv").write_text("iteration,a,b\n1,0.5,\n2,nan,3\n")
     columns = gpu_run.read_columns(tmp_path / "train.csv")
     assert columns == {"iteration": [1, 2], "a": [0.5, None], "b": [None, 3.0]}
-    assert json.dumps(gpu_run.strict({"x": [float("inf"), 1.0]}), allow_nan=False) == (
+    assert json.dumps(gpu_run.strict_json({"x": [float("inf"), 1.0]}), allow_nan=False) == (
         '{"x": [null, 1.0]}'
     )
