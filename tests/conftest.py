@@ -50,7 +50,7 @@ def _joint(
 
 
 def toy_biped_urdf(elbow_mass: float = 0.5) -> str:
-    """A small jet-powered biped (10.5 kg): pelvis, two 3-joint legs, one elbow joint, two jets."""
+    """A small jet-powered biped (11 kg): pelvis, two 3-joint legs, one elbow joint, two jets."""
     parts = [_link("pelvis", 4.0, 0.2), _link("arm", 0.5), _link("elbow", elbow_mass)]
     parts.append(_joint("shoulder", "pelvis", "arm", "0 0.15 0.1"))
     parts.append(_joint("elbow_joint", "arm", "elbow", "0 0 -0.2"))

@@ -4,15 +4,21 @@ from __future__ import annotations
 
 import argparse
 import json
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
 from motionkit.dataset.clip import read
 from motionkit.dataset.collection import MotionDataset, find_clips
 from motionkit.dataset.export import FORMATS, export
+from motionkit.dataset.physics import PhysicsConfig, check_physics
 from motionkit.dataset.validate import Check, validate_clip
 from motionkit.errors import DatasetError
 
+PHYSICS_HELP = (
+    "a TOML file of physics-check settings and thresholds (keys of "
+    "motionkit.dataset.physics.PhysicsConfig; default: its defaults)"
+)
 EPILOG = """\
 PATH is an MCAP clip or a folder of clips (searched recursively). Clips hold the motion on
 /motion (motionkit.MotionChunk, protobuf), the robot's frames on /tf (foxglove.FrameTransforms)
@@ -43,8 +49,26 @@ def add_commands(stages: argparse._SubParsersAction, robot_source: Any) -> None:
         epilog=EPILOG,
     )
     validate.add_argument("paths", nargs="+", type=Path, metavar="PATH")
+    validate.add_argument("--physics", type=Path, metavar="TOML", help=PHYSICS_HELP)
     robot_source(validate)
     validate.set_defaults(handler=_validate)
+
+    physics = commands.add_parser(
+        "check-physics",
+        help="inverse dynamics along clips: torques, centre of pressure, friction, residual",
+        description="Inverse dynamics (pinocchio) along each clip: joint torques against the "
+        "effort limits, the centre of pressure of the ground wrench the motion needs against the "
+        "support polygon, friction-cone use, and the base wrench that contacts and thrust "
+        "cannot explain. Contact forces are the clip's own where it has them (trajopt), else "
+        "the least-squares split over the sole corners on the floor. Exit 1 when a clip falls "
+        "short of a threshold (--physics).",
+        epilog=EPILOG,
+    )
+    physics.add_argument("paths", nargs="+", type=Path, metavar="PATH")
+    physics.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    physics.add_argument("--physics", type=Path, metavar="TOML", help=PHYSICS_HELP)
+    robot_source(physics)
+    physics.set_defaults(handler=_check_physics)
 
     exporter = commands.add_parser(
         "export",
@@ -102,21 +126,82 @@ def _info(args: argparse.Namespace) -> int:
 def _validate(args: argparse.Namespace) -> int:
     from motionkit.robot import load_robot
 
+    physics = _physics_config(args.physics)
     robot = load_robot(args.urdf, args.spec)
-    failed = 0
+    failed = warned = 0
     for path in find_clips(args.paths):
-        checks = validate_clip(path, robot)
-        bad = [c for c in checks if not c.ok]
+        checks = validate_clip(path, robot, physics)
+        bad = [c for c in checks if not c.ok and not c.warning]
         failed += bool(bad)
+        warned += any(not c.ok and c.warning for c in checks)
         print(f"{path}: {'FAILED' if bad else 'ok'}")
         for check in checks:
             _print_check(check)
     print(f"\n{failed} clip(s) failed" if failed else "\nall clips passed")
+    if warned:
+        print(f"{warned} clip(s) with physics warnings")
     return 1 if failed else 0
 
 
 def _print_check(check: Check) -> None:
-    print(f"  [{'ok' if check.ok else 'FAIL'}] {check.name}: {check.detail}")
+    status = "ok" if check.ok else "WARN" if check.warning else "FAIL"
+    print(f"  [{status}] {check.name}: {check.detail}")
+
+
+def _physics_config(path: Path | None) -> PhysicsConfig:
+    return PhysicsConfig.from_toml(path) if path is not None else PhysicsConfig()
+
+
+# (figure, column title, width) of the check-physics table
+PHYSICS_COLUMNS = (
+    ("frames", "frames", 7),
+    ("single_support_frames", "single", 7),
+    ("torque_within_share", "tau ok", 7),
+    ("torque_ratio_p90", "tau p90", 8),
+    ("worst_joint", "worst joint", 16),
+    ("cop_inside_share", "CoP in", 7),
+    ("cop_inside_share_single_support", "CoP in 1", 9),
+    ("friction_within_share", "mu ok", 6),
+    ("explained_share", "explained", 10),
+    ("residual_force_p95_bw", "resid p95", 10),
+)
+
+
+def _check_physics(args: argparse.Namespace) -> int:
+    from motionkit.robot import load_robot
+
+    config = _physics_config(args.physics)
+    robot = load_robot(args.urdf, args.spec)
+    rows, short = [], 0
+    for path in find_clips(args.paths):
+        report = check_physics(read(path), robot, config)
+        warnings = report.warnings()
+        short += bool(warnings)
+        rows.append({"path": str(path), **report.summary(), "warnings": warnings})
+    if args.json:
+        print(json.dumps({"config": asdict(config), "clips": rows}, indent=2))
+        return 1 if short else 0
+    print(f"{'clip':<28}" + "".join(f"{title:>{width}} " for _, title, width in PHYSICS_COLUMNS))
+    for row in rows:
+        cells = "".join(f"{_cell(row[key]):>{width}} " for key, _, width in PHYSICS_COLUMNS)
+        print(f"{Path(row['path']).stem[:27]:<28}{cells}")
+        for warning in row["warnings"]:
+            print(f"{'':<30}below threshold: {warning}")
+    print(
+        "\ntau ok: frames with every joint within its effort limit; CoP in: contact frames whose "
+        "needed centre of pressure lies in the support (1: single support); explained: frames "
+        f"whose residual is within {config.residual_tolerance} body weights; resid p95 in body "
+        "weights"
+    )
+    return 1 if short else 0
+
+
+def _cell(value: object) -> str:
+    if value is None:
+        return "-"
+    if isinstance(value, float):
+        return f"{value:.3f}"
+    return str(value)
 
 
 def _export(args: argparse.Namespace) -> int:

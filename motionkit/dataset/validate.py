@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from motionkit.dataset.clip import corner_names, read
+from motionkit.dataset.physics import PhysicsConfig, check_physics
 from motionkit.dataset.trajectory import Trajectory
 from motionkit.errors import MotionkitError
 from motionkit.robot import Robot
@@ -26,11 +27,15 @@ class Check:
     name: str
     ok: bool
     detail: str
+    warning: bool = False  # a failed warning is reported but does not fail the clip
 
 
-def validate_clip(path: Path, robot: Robot | None) -> list[Check]:
+def validate_clip(
+    path: Path, robot: Robot | None, physics: PhysicsConfig | None = None
+) -> list[Check]:
     """Read the clip (schema, metadata, CRCs) and check its values; `robot` None skips the
-    checks against a robot (its joints and limits)."""
+    checks against a robot (its joints and limits, and the physics check, whose thresholds
+    `physics` sets: warnings)."""
     try:
         trajectory = read(path)
     except MotionkitError as exc:
@@ -42,7 +47,29 @@ def validate_clip(path: Path, robot: Robot | None) -> list[Check]:
         checks += check_velocities(trajectory)
     if robot is not None:
         checks += check_robot(trajectory, robot)
+        if all(c.ok for c in checks):
+            checks.append(check_physics_warnings(trajectory, robot, physics or PhysicsConfig()))
     return checks
+
+
+def check_physics_warnings(trajectory: Trajectory, robot: Robot, config: PhysicsConfig) -> Check:
+    """The physics check's shortfalls against the config's thresholds, as a warning."""
+    name = "physics (torques, CoP, friction, residual)"
+    try:
+        report = check_physics(trajectory, robot, config)
+    except MotionkitError as exc:
+        return Check(name, False, f"not checked: {exc}", warning=True)
+    shortfalls = report.warnings()
+    figures = report.summary()
+    detail = (
+        "; ".join(shortfalls)
+        if shortfalls
+        else (
+            f"torques within limits {figures['torque_within_share']}, CoP inside "
+            f"{figures['cop_inside_share']}, explained {figures['explained_share']}"
+        )
+    )
+    return Check(name, not shortfalls, detail, warning=True)
 
 
 def check_time(trajectory: Trajectory) -> Check:

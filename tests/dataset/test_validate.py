@@ -23,7 +23,7 @@ def clean(robot):
 
 
 def failures(path: Path, robot) -> dict[str, str]:
-    return {c.name: c.detail for c in validate_clip(path, robot) if not c.ok}
+    return {c.name: c.detail for c in validate_clip(path, robot) if not c.ok and not c.warning}
 
 
 def edited(trajectory, name: str, change) -> object:
@@ -34,7 +34,8 @@ def edited(trajectory, name: str, change) -> object:
 
 def test_clean_clip_passes_every_check(tmp_path: Path, robot, clean) -> None:
     checks = validate_clip(write(tmp_path / "c.mcap", clean, robot), robot)
-    assert len(checks) == 12 and all(c.ok for c in checks), [c for c in checks if not c.ok]
+    assert len(checks) == 13 and all(c.ok for c in checks[:-1]), [c for c in checks if not c.ok]
+    assert checks[-1].warning and checks[-1].name.startswith("physics")  # a random motion
 
 
 def test_each_defect_fails_its_check(tmp_path: Path, robot, clean) -> None:
