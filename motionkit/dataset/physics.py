@@ -54,8 +54,9 @@ class PhysicsConfig:
     # steps of a trajectory optimisation's knots (their own discretisation).
     differences: str = "central"
     # Without the clip's own contact forces, a sole corner at most this high [m] above the
-    # floor (z = 0) and slower than contact_speed [m/s] horizontally can be loaded (a toe that
-    # scuffs the floor in swing cannot); the clip's contact flags are not used.
+    # floor (z = 0) can be loaded; one faster than contact_speed [m/s] horizontally slides, and
+    # its friction opposes the slip (a scuffing toe brakes). The clip's contact flags are not
+    # used.
     contact_height: float = 0.005
     contact_speed: float = 0.1
     # dataset validate warns when a clip falls short of these shares (0..1)
@@ -347,21 +348,17 @@ def _frame(
         chosen = [i for i in range(len(corners)) if flat[i, 2] > LOADED * weight]
         forces = flat[chosen]
         loaded = [point_force_map(corners[i][1]) for i in chosen]
-    else:  # the corners on the floor that do not slide
+    else:  # the corners on the floor; one that slides pushes with kinetic friction only
         maps = [point_force_map(frame) for _, frame in corners]
-        chosen = [
-            i
-            for i, (point, transpose) in enumerate(maps)
-            if point[2] <= config.contact_height
-            and np.linalg.norm((transpose.T @ v)[:2]) <= config.contact_speed
-        ]
+        chosen = [i for i, (point, _) in enumerate(maps) if point[2] <= config.contact_height]
         loaded = [maps[i] for i in chosen]
+        slips = [(transpose.T @ v)[:2] for _, transpose in loaded]
     feet = np.zeros(len(dynamics.corner_frames), dtype=bool)
     feet[[corners[i][0] for i in chosen]] = True
     rotation, base = data.oMi[1].rotation, data.oMi[1].translation
     com = pin.centerOfMass(model, data, q).copy()
     if clip_forces is None:
-        forces = _split(needed[:6], loaded, config.friction, weight)
+        forces = _split(needed[:6], loaded, slips, config, weight)
     for (_, transpose), force in zip(loaded, forces, strict=True):
         needed -= transpose @ force
     residual = needed[:6]  # the base wrench left unexplained, base frame, about the base origin
@@ -386,24 +383,41 @@ def _frame(
 
 
 def _split(
-    wrench: Array, loaded: list[tuple[Array, Array]], friction: float, weight: float
+    wrench: Array,
+    loaded: list[tuple[Array, Array]],
+    slips: list[Array],
+    config: PhysicsConfig,
+    weight: float,
 ) -> Array:
-    """Forces (corners, 3) [N, world] at the loaded corners, each inside its friction pyramid,
-    whose base wrench is nearest `wrench` (least squares, moments weighed at LEVER)."""
+    """Forces (corners, 3) [N, world] at the loaded corners whose base wrench is nearest
+    `wrench` (least squares, moments weighed at LEVER): each inside its friction pyramid, or,
+    for a corner that slides (horizontal velocity in `slips` above contact_speed), along the
+    normal tilted against the slip by the friction coefficient (Coulomb's kinetic friction)."""
     if not loaded:
         return np.zeros((0, 3))
-    edges = np.array(
-        [[friction, 0, 1], [-friction, 0, 1], [0, friction, 1], [0, -friction, 1]], dtype=float
-    )
+    mu = config.friction
+    pyramid = np.array([[mu, 0, 1], [-mu, 0, 1], [0, mu, 1], [0, -mu, 1]], dtype=float)
+    edges = []
+    for slip in slips:
+        speed = float(np.linalg.norm(slip))
+        if speed > config.contact_speed:
+            edges.append(np.array([[*(-mu * slip / speed), 1.0]]))
+        else:
+            edges.append(pyramid)
     scale = np.array([1, 1, 1, 1 / LEVER, 1 / LEVER, 1 / LEVER]) / weight
-    columns = np.concatenate([transpose[:6] @ edges.T for _, transpose in loaded], axis=1)
+    columns = np.concatenate(
+        [transpose[:6] @ e.T for (_, transpose), e in zip(loaded, edges, strict=True)], axis=1
+    )
     count = columns.shape[1]
     system = np.vstack(
         [columns * scale[:, None], math.sqrt(SPLIT_REGULARISATION) * np.eye(count) / weight]
     )
     target = np.concatenate([wrench * scale, np.zeros(count)])
     weights, _ = nnls(system, target, maxiter=50 * count)
-    return weights.reshape(len(loaded), 4) @ edges
+    sizes = np.cumsum([0, *(len(e) for e in edges)])
+    return np.array(
+        [weights[a:b] @ e for a, b, e in zip(sizes[:-1], sizes[1:], edges, strict=True)]
+    )
 
 
 def _ground_wrench(

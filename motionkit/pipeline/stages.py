@@ -164,10 +164,13 @@ def datasets(ctx: Context) -> Outcome:
                     f"datasets: {clip.path} fails "
                     + "; ".join(f"{c.name}: {c.detail}" for c in failed)
                 )
+            physics = clip.metadata.metrics.get("physics", {})
             rows.append(
                 {"clip": str(clip.path), "kind": clip.label, "frames": clip.frames,
-                 "duration_s": round(clip.duration, 3), "rate_hz": round(clip.rate, 3)}
+                 "duration_s": round(clip.duration, 3), "rate_hz": round(clip.rate, 3),
+                 "physics": {k: physics.get(k) for k in PHYSICS_FIGURES}}
             )  # fmt: skip
+        print_physics(rows)
         seconds: dict[str, float] = {}
         for row in rows:
             seconds[row["kind"]] = seconds.get(row["kind"], 0.0) + row["duration_s"]
@@ -177,6 +180,35 @@ def datasets(ctx: Context) -> Outcome:
         return f"{len(rows)} clips valid ({kinds})"
 
     return ctx.run("datasets", parts, "datasets", work)
+
+
+# the physics figures of each clip (its generator's check) in the datasets stage's table
+PHYSICS_FIGURES = (
+    "cop_inside_share_single_support",
+    "torque_within_share",
+    "friction_within_share",
+    "residual_force_p95_bw",
+)
+
+
+def print_physics(rows: list[dict]) -> None:
+    """One line per clip: the physics figures its generator stored (- where it has none)."""
+    print(f"{'clip':<34} {'kind':<8} {'seconds':>7} {'CoP in 1':>9} {'tau ok':>7} {'mu ok':>6} "
+          f"{'resid p95':>10}")  # fmt: skip
+    for row in rows:
+        cells = [
+            "-" if row["physics"][k] is None else f"{row['physics'][k]:.3f}"
+            for k in PHYSICS_FIGURES
+        ]
+        print(
+            f"{Path(row['clip']).stem[:33]:<34} {row['kind']:<8} {row['duration_s']:>7.2f} "
+            f"{cells[0]:>9} {cells[1]:>7} {cells[2]:>6} {cells[3]:>10}"
+        )
+    print(
+        "CoP in 1: single-support frames whose needed centre of pressure is in the stance sole; "
+        "tau ok: frames within the effort limits; mu ok: within the friction cone; resid p95: "
+        "the base force contacts and thrust cannot explain [body weights] (flights: at the knots)"
+    )
 
 
 def train(ctx: Context) -> Outcome:

@@ -123,7 +123,8 @@ def retarget_clip(
             acknowledgement=CMU_ACKNOWLEDGEMENT if cmu else "",
         )
         frames = motion.frames
-        step = None if progress is None else (lambda t: progress(t + 1, frames))
+        total = frames * (config.balance.passes + 1)  # the balance filter solves again
+        step = None if progress is None else (lambda t: progress(t + 1, total))
         trajectory, timings = retarget(motion.landmarks(), motion.rate, robot, config, source, step)
         solved = clock.perf_counter()
         path = write(out / f"{clip.name}.mcap", trajectory, robot)

@@ -2,12 +2,20 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+import math
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
 from motionkit.errors import RetargetError
 from motionkit.tomlfile import build_dataclass, read_toml
+
+
+def _check(config: object, name: str, low: float, expected: str, strict: bool = False) -> None:
+    """A RetargetError unless the field `name` is finite and at least (or, strict, above) `low`."""
+    value = getattr(config, name)
+    if not math.isfinite(value) or value < low or (strict and value == low):
+        raise RetargetError(f"'{name}' should be finite and {expected}, got {value}")
 
 
 @dataclass(frozen=True)
@@ -16,12 +24,19 @@ class Weights:
 
     foot_position: float = 1000.0
     foot_orientation: float = 100.0
+    # a sole in contact (blended in over the release after it): above the swinging one's
+    contact_foot_position: float = 100000.0
+    contact_foot_orientation: float = 10000.0
     pelvis_position: float = 10.0
     pelvis_orientation: float = 5.0
     torso_orientation: float = 2.0
     knee: float = 1.0
     elbow: float = 0.5
     posture: float = 1e-3
+
+    def __post_init__(self) -> None:
+        for item in fields(self):
+            _check(self, item.name, 0.0, ">= 0")
 
 
 @dataclass(frozen=True)
@@ -39,17 +54,51 @@ class RobotPoints:
 
 
 @dataclass(frozen=True)
+class Balance:
+    """The dynamic filter (motionkit/retarget/balance.py): the base moves horizontally so that
+    the centre of pressure the motion needs stays inside the support."""
+
+    passes: int = 3  # filter passes (each re-solves the IK); 0: off
+    margin: float = 0.02  # m: the CoP is kept this far inside the support polygon's edges
+    # A frame's CoP error counts up to this size [m]: a larger one (an impact, a hop's
+    # landing) is beyond what a smooth shift of the CoM can undo.
+    error_cap: float = 0.1
+    max_shift: float = 0.1  # m: the base moves at most this far from the retargeted one
+    stay: float = 1e-2  # weight of the shift's size against the CoP error (m^2 per m^2)
+    smooth: float = 1e-2  # weight of the shift's own cart-table CoP swing (its acceleration)
+
+    def __post_init__(self) -> None:
+        if self.passes < 0:
+            raise RetargetError(f"balance passes should be >= 0, got {self.passes}")
+        for name in ("margin", "stay", "smooth"):
+            _check(self, name, 0.0, ">= 0")
+        for name in ("error_cap", "max_shift"):
+            _check(self, name, 0.0, "> 0", strict=True)
+
+
+@dataclass(frozen=True)
 class RetargetConfig:
     kind: str = "walk"  # dataset label of the output
     # Landmarks are low-passed (zero-phase Butterworth, 2nd order) at this cut-off [Hz]; 0: off.
     # 6 Hz is the usual choice for gait mocap; it removes marker jitter that the IK would chase.
     smoothing_hz: float = 6.0
-    # Human foot contact: foot height above the ground [m] and horizontal speed [m/s] below
-    # these (human scale); runs and gaps shorter than min_run [s] are removed.
-    contact_height: float = 0.06
+    # Human foot contact (human scale): the foot lands when its lower end (ankle or toe) is
+    # within contact_height [m] of where it stands and the slower of the two moves slower than
+    # contact_speed [m/s] (vertical motion included); it lifts off when either passes
+    # contact_hysteresis (>= 1) times its threshold. Runs and gaps shorter than min_run [s] are
+    # removed.
+    contact_height: float = 0.03
     contact_speed: float = 0.35
+    contact_hysteresis: float = 1.2
     min_run: float = 0.05
-    # After a contact ends, the locked foot target blends back to the human's over this time [s].
+    # Where a foot stands: per landmark, its lowest within ground_window [s] either side of a
+    # frame, but at most ground_range [m] above that landmark's lowest on either foot (human
+    # scale).
+    ground_window: float = 1.0
+    ground_range: float = 0.08
+    # Over this time [s] before a contact the foot target closes in on where it will be locked
+    # (a foot that lands moving stops above its place), and after one it blends back to the
+    # human's.
     release_time: float = 0.2
     # The human upper arms are turned outward by this angle [rad]: iRonCub's arm jets would
     # otherwise hit its chest jets when the arms hang down.
@@ -63,6 +112,7 @@ class RetargetConfig:
     velocity_limits: bool = True
     weights: Weights = Weights()
     points: RobotPoints = RobotPoints()
+    balance: Balance = Balance()
     # Clips: files, folders or CMU clip ids (a recipe's list; the CLI's inputs are added).
     clips: tuple[str, ...] = field(default_factory=tuple)
 
@@ -71,6 +121,11 @@ class RetargetConfig:
 
         if self.kind not in KINDS:
             raise RetargetError(f"kind '{self.kind}' is not one of {', '.join(KINDS)}")
+        for name in ("contact_height", "contact_speed", "ground_window", "release_time"):
+            _check(self, name, 0.0, "> 0", strict=True)
+        for name in ("min_run", "ground_range"):
+            _check(self, name, 0.0, ">= 0")
+        _check(self, "contact_hysteresis", 1.0, ">= 1")
 
     @classmethod
     def from_toml(cls, path: Path) -> RetargetConfig:
@@ -78,7 +133,7 @@ class RetargetConfig:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<config>") -> RetargetConfig:
-        nested = {"weights": Weights, "points": RobotPoints}
+        nested = {"weights": Weights, "points": RobotPoints, "balance": Balance}
         values: dict[str, Any] = {}
         for key, value in data.items():
             if key in nested:

@@ -5,17 +5,20 @@ from __future__ import annotations
 import time as clock
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from motionkit.dataset import Metadata, Source, Trajectory
+from motionkit.dataset.physics import check_physics
 from motionkit.mocap.naming import skeleton
+from motionkit.retarget.balance import Pass, balance
 from motionkit.retarget.config import RetargetConfig
 from motionkit.retarget.ik import solve_motion
 from motionkit.retarget.metrics import compute_metrics
 from motionkit.retarget.points import robot_points
-from motionkit.retarget.targets import RobotGeometry, make_targets
+from motionkit.retarget.targets import RobotGeometry, Targets, make_targets
 from motionkit.robot import Robot
 from motionkit.robot.geometry import Array, angular_velocity, from_rotation
 
@@ -44,7 +47,9 @@ def retarget(
     progress: Callable[[int], None] | None = None,
 ) -> tuple[Trajectory, Timings]:
     """The robot motion that follows human landmarks (world positions [m], Z up, at `rate` Hz),
-    with its quality metrics in the metadata, and the human (low-passed, scaled to the robot:
+    made balanceable by the dynamic filter (`config.balance`: the base moves so that the
+    centre of pressure stays in the support), with its quality and physics figures (and what
+    the filter changed) in the metadata, and the human (low-passed, scaled to the robot:
     what it was retargeted to) as the clip's landmarks; landmarks outside
     motionkit.mocap.LANDMARKS are not written."""
     start = clock.perf_counter()
@@ -53,42 +58,101 @@ def retarget(
         landmarks, rate, RobotGeometry(robot, points, config.points.torso_frame), config
     )
     planned = clock.perf_counter()
-    base, joints = solve_motion(robot, targets, points, config, progress)
-    solved = clock.perf_counter()
-    metrics = compute_metrics(robot, targets, points, base, joints)
-    metrics["scale"] = targets.scale
-    measured = clock.perf_counter()
+    motion = _Motion(robot, config, source or Source())
 
-    time = targets.time
-    quats = from_rotation(Rotation.from_matrix(base[:, :3, :3]))
-    names, parents = skeleton(list(targets.human))
-    trajectory = Trajectory(
-        time=time,
-        base_position=base[:, :3, 3],
-        base_orientation=quats,
-        joint_names=robot.joint_names,
-        joint_positions=joints,
-        joint_velocities=np.gradient(joints, time, axis=0),
-        base_linear_velocity=np.gradient(base[:, :3, 3], time, axis=0),
-        base_angular_velocity=angular_velocity(time, quats),
-        thrust=np.zeros((len(time), len(robot.spec.jets))),
-        contacts=targets.contacts,
-        jet_names=tuple(jet.name for jet in robot.spec.jets),
-        foot_names=tuple(foot.side for foot in robot.spec.feet),
-        landmark_names=names,
-        landmark_parents=parents,
-        landmarks=np.stack([targets.human[name] for name in names], axis=1),
-        metadata=Metadata(
-            robot=robot.name,
-            robot_hash=robot.model_hash,
-            kind=config.kind,
-            generator="retarget",
-            source=source or Source(),
-            config=_plain(config.to_dict()),
-            metrics=metrics,
-        ),
-    )
+    solves = [0]  # IK solves so far: the progress counts frames over all of them
+
+    def solve(goals: Targets) -> tuple[Array, Array]:
+        offset = solves[0] * len(goals.time)
+        solves[0] += 1
+        step = None if progress is None else (lambda t: progress(offset + t))
+        return solve_motion(robot, goals, points, config, step)
+
+    base, joints = solve(targets)
+    metrics: dict[str, Any] = {}
+    goals = targets
+    if config.balance.passes:
+        before = compute_metrics(robot, targets, points, base, joints)
+        physics_before = check_physics(motion.trajectory(targets, base, joints), robot)
+        goals, base, joints, passes = balance(
+            targets,
+            solve,
+            lambda b, j: check_physics(motion.trajectory(targets, b, j), robot),
+            config.balance,
+            first=(base, joints),
+        )
+        metrics |= _changes(before, physics_before.summary(), passes)
+        metrics["balance_shift_max_m"] = round(
+            float(np.abs(goals.root[:, :2, 3] - targets.root[:, :2, 3]).max()), 5
+        )
+    solved = clock.perf_counter()
+    # tracking figures against what the IK followed: the balanced targets
+    metrics = compute_metrics(robot, goals, points, base, joints) | metrics
+    metrics["scale"] = targets.scale
+    trajectory = motion.trajectory(targets, base, joints)
+    metrics["physics"] = check_physics(trajectory, robot).summary()
+    measured = clock.perf_counter()
+    trajectory = motion.trajectory(targets, base, joints, metrics)
     return trajectory, Timings(planned - start, solved - planned, measured - solved)
+
+
+def _changes(before: dict[str, Any], physics: dict[str, Any], passes: list[Pass]) -> dict[str, Any]:
+    """What the balance filter changed: figures before it, and its largest base shift."""
+    kept = ("feet_error_mean_m", "knees_error_mean_m", "elbows_error_mean_m", "foot_slide_p95_m_s")
+    return {
+        "balance_passes": len(passes) - 1,
+        "balance_cop_inside_share_per_pass": [round(p.cop_inside_share, 4) for p in passes],
+        **{f"before_balance_{k}": before[k] for k in kept},
+        "before_balance_physics": {
+            k: physics[k]
+            for k in (
+                "cop_inside_share",
+                "cop_inside_share_single_support",
+                "torque_within_share",
+                "torque_within_share_single_support",
+            )
+        },
+    }
+
+
+class _Motion:
+    """Builds the clip of a solved motion."""
+
+    def __init__(self, robot: Robot, config: RetargetConfig, source: Source) -> None:
+        self.robot, self.config, self.source = robot, config, source
+
+    def trajectory(
+        self, targets: Targets, base: Array, joints: Array, metrics: dict[str, Any] | None = None
+    ) -> Trajectory:
+        robot, time = self.robot, targets.time
+        quats = from_rotation(Rotation.from_matrix(base[:, :3, :3]))
+        names, parents = skeleton(list(targets.human))
+        return Trajectory(
+            time=time,
+            base_position=base[:, :3, 3],
+            base_orientation=quats,
+            joint_names=robot.joint_names,
+            joint_positions=joints,
+            joint_velocities=np.gradient(joints, time, axis=0),
+            base_linear_velocity=np.gradient(base[:, :3, 3], time, axis=0),
+            base_angular_velocity=angular_velocity(time, quats),
+            thrust=np.zeros((len(time), len(robot.spec.jets))),
+            contacts=targets.contacts,
+            jet_names=tuple(jet.name for jet in robot.spec.jets),
+            foot_names=tuple(foot.side for foot in robot.spec.feet),
+            landmark_names=names,
+            landmark_parents=parents,
+            landmarks=np.stack([targets.human[name] for name in names], axis=1),
+            metadata=Metadata(
+                robot=robot.name,
+                robot_hash=robot.model_hash,
+                kind=self.config.kind,
+                generator="retarget",
+                source=self.source,
+                config=_plain(self.config.to_dict()),
+                metrics=metrics or {},
+            ),
+        )
 
 
 def _plain(value: object) -> object:

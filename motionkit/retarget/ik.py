@@ -15,7 +15,7 @@ import numpy as np
 
 from motionkit.errors import RetargetError
 from motionkit.retarget.bodies import avoided, capsules, host_link, with_collision_cylinders
-from motionkit.retarget.config import RetargetConfig
+from motionkit.retarget.config import RetargetConfig, Weights
 from motionkit.retarget.points import Point
 from motionkit.retarget.targets import SIDES, Targets
 from motionkit.robot import Robot
@@ -116,7 +116,7 @@ def solve_motion(
     posture.configure("posture", "soft", weights.posture)
 
     shoulders = [points[f"{s}_shoulder"] for s in SIDES]
-    ground = _GroundGuard(solver, wrapper, robot, weights.foot_position * 10)
+    ground = _GroundGuard(solver, wrapper, robot, weights.contact_foot_position * 10)
 
     def solve_frame(t: int, iterations: int) -> None:
         for _ in range(iterations):
@@ -140,6 +140,7 @@ def solve_motion(
                 actual = wrapper.get_T_world_frame(foot.sole)
                 landing[k] = _planar_offset(actual, targets.soles[t, k])
             feet[k].T_world_frame = _shifted(targets.soles[t, k], targets.hold[t, k] * landing[k])
+            feet[k].configure(foot.sole, "soft", *foot_weights(weights, targets.hold[t, k]))
             knees[k].target_world = targets.knees[t, k]
         if t == 0:
             iterations = config.settle_iterations
@@ -152,7 +153,9 @@ def solve_motion(
         previous = wrapper.state.q.copy()
         try:
             solve_frame(t, iterations)
-            if ground.engage():  # a sole corner went below the ground: solve again, holding it up
+            for _ in range(_GroundGuard.ROUNDS):  # a corner went below: solve again, holding it up
+                if not ground.engage():
+                    break
                 wrapper.state.q = previous
                 wrapper.update_kinematics()
                 solve_frame(t, iterations)
@@ -166,20 +169,38 @@ def solve_motion(
     return base, joints
 
 
+def foot_weights(weights: Weights, hold: float) -> tuple[float, float]:
+    """Position and orientation weights of a sole task: the swing weights blended toward the
+    contact ones by the hold weight (1 in contact), so that a planted foot wins over a swinging
+    one that its leg's joint velocity limits hold back."""
+    return (
+        weights.foot_position + hold * (weights.contact_foot_position - weights.foot_position),
+        weights.foot_orientation
+        + hold * (weights.contact_foot_orientation - weights.foot_orientation),
+    )
+
+
 class _GroundGuard:
     """Holds sole corners on the ground plane (z = 0) when a solve pushed them below it: the
-    frame is solved again with a height task on each such corner. PlaCo has no inequality task
-    on a frame's height, hence this active-set step; it runs only on the frames that need it."""
+    frame is solved again with a height task on each such corner, and again while a corner is
+    still below (the set grows; ROUNDS at most). PlaCo has no inequality task on a frame's
+    height, hence this active-set step; it runs only on the frames that need it."""
 
     TOLERANCE = 5e-4  # m below the ground that is let pass
+    ROUNDS = 3
 
     def __init__(self, solver: object, wrapper: object, robot: Robot, weight: float) -> None:
         self.solver, self.wrapper, self.weight = solver, wrapper, weight
         self.corners = [c for foot in robot.spec.feet for c in foot.corners]
         self.active: list[object] = []
+        self.held: set[str] = set()
 
     def engage(self) -> bool:
+        """Add a task for each corner newly below the ground; whether any was added."""
+        added = False
         for corner in self.corners:
+            if corner in self.held:
+                continue
             position = self.wrapper.get_T_world_frame(corner)[:3, 3]  # type: ignore[attr-defined]
             if position[2] < -self.TOLERANCE:
                 target = np.array([position[0], position[1], 0.0])
@@ -187,12 +208,15 @@ class _GroundGuard:
                 task.mask.set_axises("z")
                 task.configure(f"ground {corner}", "soft", self.weight)
                 self.active.append(task)
-        return bool(self.active)
+                self.held.add(corner)
+                added = True
+        return added
 
     def release(self) -> None:
         for task in self.active:
             self.solver.remove_task(task)  # type: ignore[attr-defined]
         self.active.clear()
+        self.held.clear()
 
 
 def _planar_offset(actual: Array, planned: Array) -> Array:

@@ -4,9 +4,11 @@ The human is scaled by the leg-length ratio (about the world origin) and lifted 
 ankles in contact are at the robot's ankle height (`Targets.human`, written into the clip as its
 landmarks); then rebuilt with the robot's segment lengths: the pelvis follows the scaled hip
 midpoint; knees and ankles lie along the human's thigh and shank directions at the robot's thigh
-and shank lengths. During a detected contact the sole target is flat on the ground (z = 0) and
-locked where the contact began; around contacts the target blends between the locked and the free
-pose over `release_time`.
+and shank lengths. A human foot is in contact while the lower of its ankle and toe is near where
+that landmark stands (its lowest nearby: floors are not quite level) and the slower of the two is
+nearly still, with hysteresis (`detect_contacts`). During a contact the sole target is flat on the
+ground (z = 0) and locked where the contact began; over `release_time` before it the target closes
+in on the lock, and after it blends back to the free pose (`lock_offsets`).
 """
 
 from __future__ import annotations
@@ -87,6 +89,74 @@ def clean_runs(mask: Array, shortest: int) -> Array:
     return out
 
 
+def standing_height(heights: Array, lowest: float, rate: float, config: RetargetConfig) -> Array:
+    """(T,) the height [m] a foot landmark has when its foot is down, near each frame: its
+    lowest within ground_window [s] either side (a floor that is not level, a marker that
+    drifts), but at most ground_range above `lowest`, the landmark's lowest on either foot (a
+    foot held up for long)."""
+    from scipy.ndimage import minimum_filter1d
+
+    size = 2 * max(1, round(config.ground_window * rate)) + 1
+    local = minimum_filter1d(heights, size, mode="nearest")
+    return np.minimum(local, lowest + config.ground_range)
+
+
+def foot_clearance(
+    ankle: Array, toe: Array, lowest: tuple[float, float], rate: float, config: RetargetConfig
+) -> Array:
+    """(T,) how high the foot's lower end is above where it stands [m]: the smaller of the
+    ankle's and the toe's heights above their standing heights (a foot rolling on its heel or
+    its ball keeps one of them there; both rise when it leaves the ground). `lowest`: the
+    lowest ankle and toe heights on either foot."""
+    return np.minimum(
+        ankle[:, 2] - standing_height(ankle[:, 2], lowest[0], rate, config),
+        toe[:, 2] - standing_height(toe[:, 2], lowest[1], rate, config),
+    )
+
+
+def pivot_speed(ankle: Array, toe: Array, time: Array) -> Array:
+    """(T,) the speed [m/s] of the slower of ankle and toe, vertical motion included: the one
+    the foot turns about when it rolls on the ground; in the air both move."""
+    return np.minimum(
+        np.linalg.norm(np.gradient(ankle, time, axis=0), axis=1),
+        np.linalg.norm(np.gradient(toe, time, axis=0), axis=1),
+    )
+
+
+def hysteresis(enter: Array, stay: Array) -> Array:
+    """True from a frame where `enter` holds for as long as `stay` holds (`enter` implies
+    `stay`)."""
+    out = np.zeros(len(enter), dtype=bool)
+    for start, stop in _runs(stay):
+        hits = np.flatnonzero(enter[start:stop])
+        if hits.size:
+            out[start + hits[0] : stop] = True
+    return out
+
+
+def detect_contacts(
+    ankle: Array,
+    toe: Array,
+    time: Array,
+    config: RetargetConfig,
+    lowest: tuple[float, float] | None = None,
+) -> Array:
+    """(T,) bool: the foot is on the ground. It lands when its lower end comes within
+    contact_height of where it stands and its pivot is slower than contact_speed; it stays down
+    until either passes contact_hysteresis times its threshold. Runs and gaps shorter than
+    min_run are removed. `lowest`: the lowest ankle and toe heights on either foot (default:
+    this foot's)."""
+    rate = 1.0 / float(np.median(np.diff(time)))
+    if lowest is None:
+        lowest = (float(ankle[:, 2].min()), float(toe[:, 2].min()))
+    clearance = foot_clearance(ankle, toe, lowest, rate, config)
+    speed = pivot_speed(ankle, toe, time)
+    enter = (clearance < config.contact_height) & (speed < config.contact_speed)
+    factor = config.contact_hysteresis
+    stay = (clearance < factor * config.contact_height) & (speed < factor * config.contact_speed)
+    return clean_runs(hysteresis(enter, stay), max(1, round(config.min_run * rate)))
+
+
 class RobotGeometry:
     """What the targets need of the robot, at its zero pose, in the root frame."""
 
@@ -156,13 +226,16 @@ def make_targets(
     # ground and contacts, at human scale
     low = np.stack([np.minimum(h[f"{s}_ankle"][:, 2], h[f"{s}_toe"][:, 2]) for s in SIDES], 1)
     ground = float(np.percentile(low.min(axis=1), 2))
+    ankles, toes = ([h[f"{s}_{part}"][:, 2].min() for s in SIDES] for part in ("ankle", "toe"))
+    lowest = (float(min(ankles)), float(min(toes)))
+    contacts = np.stack(
+        [detect_contacts(h[f"{s}_ankle"], h[f"{s}_toe"], time, config, lowest) for s in SIDES],
+        axis=1,
+    )
     middle = [0.5 * (h[f"{s}_ankle"] + h[f"{s}_toe"]) for s in SIDES]
     speed = np.stack(
         [np.linalg.norm(np.gradient(m[:, :2], time, axis=0), axis=1) for m in middle], 1
     )
-    raw = (low - ground < config.contact_height) & (speed < config.contact_speed)
-    shortest = max(1, round(config.min_run * rate))
-    contacts = np.stack([clean_runs(raw[:, k], shortest) for k in range(2)], axis=1)
 
     # root and torso orientation from the human's pelvis and chest frames
     pelvis = body_frames(h["l_hip"] - h["r_hip"], h["spine"] - 0.5 * (h["l_hip"] + h["r_hip"]))
@@ -223,6 +296,39 @@ def make_targets(
     )
 
 
+def lock_offsets(planar: Array, contact: Array, window: int) -> tuple[Array, Array, Array]:
+    """Offsets (T, 3) of x, y and yaw that take the free sole `planar` (T, 3) onto the contact
+    locks, the weight (T,) of the lock against the human's height and tilt, and the hold
+    weight (T,) of the IK's landing correction.
+
+    A contact's lock is the sole where the contact began. In the contact the offset holds the
+    sole there; over `window` frames before it the sole closes in on it (the offset's weight
+    rising from 0 to 1), so that a foot that lands moving stops over its lock rather than
+    skidding into it; over `window` frames after it the offset the lock had last is carried
+    out as the weight falls. Where two contacts' windows overlap, their weights share 1."""
+    frames = len(planar)
+    runs = _runs(contact)
+    offset, total = np.zeros((frames, 3)), np.zeros(frames)
+    keep, hold = contact.astype(float), contact.astype(float)
+    index = np.arange(frames)
+    for n, (start, stop) in enumerate(runs):
+        lock = planar[start]
+        offset[start:stop] = lock - planar[start:stop]
+        total[start:stop] = 1.0
+        before = slice(max(runs[n - 1][1] if n else 0, start - window), start)
+        rising = 1.0 - (start - index[before]) / window
+        offset[before] += rising[:, None] * (lock - planar[before])
+        after = slice(stop, min(runs[n + 1][0] if n + 1 < len(runs) else frames, stop + window))
+        falling = 1.0 - (index[after] - stop + 1) / window
+        offset[after] += falling[:, None] * (lock - planar[stop - 1])
+        hold[after] = falling
+        for part, weight in ((before, rising), (after, falling)):
+            total[part] += weight
+            keep[part] = np.maximum(keep[part], weight)
+    share = np.maximum(total, 1.0)
+    return offset / share[:, None], keep, hold / share
+
+
 def _sole_targets(
     ankle: Array,
     foot: Array,
@@ -247,37 +353,20 @@ def _sole_targets(
     pitch = np.arctan2(-forward[:, 2], forward[:, 0])
     neutral = Rotation.from_euler("Y", float(np.median(pitch[contact] if contact.any() else pitch)))
     tilt = tilt * neutral.inv()
-    # weight of the free pose: 0 in contact, rising to 1 at release_time from the nearest contact
-    window = max(1, round(config.release_time * rate))
-    distance = np.full(frames, window, dtype=float)
-    index = np.arange(frames)
-    for start, stop in _runs(contact):
-        gap = np.where(index < start, start - index, np.where(index >= stop, index - stop + 1, 0))
-        distance = np.minimum(distance, gap)
-    free = distance / window
-
     align = Rotation.from_matrix(geometry.align.T @ geometry.sole_rotation[side])
     position = ankle + (heading * tilt * align).apply(geometry.ankle_to_sole[side])
-    # lock each contact where it began; carry the offset out of it as the weight rises
-    offset_xy, offset_yaw = np.zeros((frames, 2)), np.zeros(frames)
-    held = np.zeros(frames, dtype=bool)
-    for start, stop in _runs(contact):
-        lock_xy, lock_yaw = position[start, :2].copy(), yaw[start]
-        offset_xy[start:stop] = lock_xy - position[start:stop, :2]
-        offset_yaw[start:stop] = lock_yaw - yaw[start:stop]
-        after = slice(stop, min(frames, stop + window))
-        offset_xy[after] = lock_xy - position[stop - 1, :2]
-        offset_yaw[after] = lock_yaw - yaw[stop - 1]
-        held[start : after.stop] = True
-    keep = 1.0 - free
+    window = max(1, round(config.release_time * rate))
+    planar = np.column_stack([position[:, :2], yaw])
+    offset, keep, hold = lock_offsets(planar, contact, window)
+    free = 1.0 - keep  # weight of the human's height and tilt
     partial_tilt = Rotation.from_rotvec(tilt.as_rotvec() * free[:, None])
-    turn = Rotation.from_euler("Z", (yaw + keep * offset_yaw)[:, None])
+    turn = Rotation.from_euler("Z", (yaw + offset[:, 2])[:, None])
     rotation = (turn * partial_tilt * align).as_matrix()
     sole = np.broadcast_to(np.eye(4), (frames, 4, 4)).copy()
     sole[:, :3, :3] = rotation
-    sole[:, :2, 3] = position[:, :2] + keep[:, None] * offset_xy
+    sole[:, :2, 3] = position[:, :2] + offset[:, :2]
     sole[:, 2, 3] = free * position[:, 2]
     # no corner below the ground
     lowest = np.min(np.einsum("tij,cj->tci", rotation, geometry.corners[side])[..., 2], axis=1)
     sole[:, 2, 3] = np.maximum(sole[:, 2, 3], -lowest)
-    return sole, np.where(held, keep, 0.0)
+    return sole, hold

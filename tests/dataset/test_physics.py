@@ -11,6 +11,7 @@ from motionkit.dataset import Metadata, Trajectory, write
 from motionkit.dataset.physics import (
     GRAVITY,
     PhysicsConfig,
+    _split,
     check_physics,
     nearest_in_polygon,
     polygon_distance,
@@ -200,3 +201,19 @@ def test_validate_warns_and_check_physics_reports(
     assert by_name["stand"]["cop_inside_share"] == 1.0 and not by_name["stand"]["warnings"]
     assert by_name["swing"]["cop_inside_share"] == 0.0 and by_name["swing"]["warnings"]
     assert report["config"]["friction"] == PhysicsConfig().friction
+
+
+def test_a_sliding_corner_pushes_with_kinetic_friction_only() -> None:
+    """One corner at the base origin (J^T: the force itself, no moment) must carry a weight W.
+    Still, it pushes straight up; sliding along x, only along (-mu, 0, 1): the least-squares
+    force is W / (1 + mu^2) of that direction."""
+    config, weight = PhysicsConfig(), 400.0
+    transpose = np.zeros((9, 3))
+    transpose[:3] = np.eye(3)
+    wrench = np.array([0.0, 0.0, weight, 0.0, 0.0, 0.0])
+    loaded = [(np.zeros(3), transpose)]
+    still_force = _split(wrench, loaded, [np.zeros(2)], config, weight)
+    np.testing.assert_allclose(still_force, [[0.0, 0.0, weight]], rtol=1e-3, atol=1e-9)
+    slide = _split(wrench, loaded, [np.array([0.5, 0.0])], config, weight)
+    mu = config.friction
+    np.testing.assert_allclose(slide, [[-mu, 0.0, 1.0]] * np.array(weight / (1 + mu**2)), rtol=1e-3)

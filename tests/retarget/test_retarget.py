@@ -52,7 +52,8 @@ def test_output_is_a_valid_clip(result, tmp_path: Path) -> None:
     _, trajectory = result
     robot = ironcub()
     checks = validate_clip(write(tmp_path / "walk.mcap", trajectory, robot), robot)
-    assert all(c.ok for c in checks), [c for c in checks if not c.ok]
+    failed = [c for c in checks if not c.ok and not c.warning]
+    assert not failed, failed
     assert trajectory.metadata.generator == "retarget" and trajectory.metadata.kind == "walk"
 
 
