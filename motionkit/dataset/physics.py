@@ -34,7 +34,10 @@ GRAVITY = 9.81  # m/s^2, as in MuJoCo and pinocchio (the trajopt's 9.80665 diffe
 LEVER = 0.1
 # A corner of a clip with contact forces is loaded above this normal force [body weights].
 LOADED = 1e-3
-ON_EDGE = 1e-4  # m: a CoP this close outside the support counts as on its edge (inside)
+ON_EDGE = 1e-3  # m: a CoP this close outside the support counts as on its edge (inside)
+# The CoP and friction use count on frames whose ground force is at least this [body weights]:
+# below it (a foot that barely touches) the CoP is not defined to the millimetre.
+MIN_GROUND_LOAD = 0.02
 SPLIT_REGULARISATION = 1e-4  # (body weights)^2: spreads the load where the split is not unique
 
 
@@ -51,7 +54,8 @@ class PhysicsConfig:
     smoothing_hz: float = 6.0
     # "central": accelerations by central differences; "forward": (v[k+1] - v[k]) / dt and the
     # base wrench from the forward difference of the centroidal momentum: the explicit Euler
-    # steps of a trajectory optimisation's knots (their own discretisation).
+    # steps of a trajectory optimisation's knots (their own discretisation; the last knot,
+    # which starts no step, is left out).
     differences: str = "central"
     # Without the clip's own contact forces, a sole corner at most this high [m] above the
     # floor (z = 0) can be loaded; one faster than contact_speed [m/s] horizontally slides, and
@@ -102,7 +106,8 @@ class PhysicsReport:
     cop: Array  # (T, 2) world x, y [m] of the needed ground wrench's CoP; NaN without contact
     support: tuple[Array, ...]  # per frame (corners, 2): x, y [m] of the loaded sole corners
     support_distance: Array  # (T,) m, > 0 inside the support polygon; NaN without contact
-    friction_ratio: Array  # (T,) |f_t| / (mu f_z) of the needed ground force; inf if f_z <= 0
+    friction_ratio: Array  # (T,) max(|f_x|, |f_y|) / (mu f_z) of the needed ground force (the
+    # friction pyramid, world axes, as the trajopt's and the split's); inf if f_z <= 0
     residual_force: Array  # (T,) N: needed minus supplied (contacts + thrust) base force
     residual_moment: Array  # (T,) N m, about the centre of mass
     weight: float  # N
@@ -122,6 +127,11 @@ class PhysicsReport:
         return self.contacts.any(axis=1)
 
     @property
+    def loaded(self) -> Array:
+        """(T,) bool: frames whose ground force is large enough for a CoP (see MIN_GROUND_LOAD)."""
+        return ~np.isnan(self.support_distance)
+
+    @property
     def cop_inside(self) -> Array:
         """(T,) bool: the CoP inside the support by the margin (False without contact)."""
         distance = np.nan_to_num(self.support_distance, nan=-np.inf)
@@ -136,7 +146,7 @@ class PhysicsReport:
     def summary(self) -> dict[str, Any]:
         """JSON-ready figures: what retarget and trajopt store in a clip's metrics."""
         frames = len(self.torques)
-        contact, single = self.in_contact, self.single_support
+        contact, single = self.loaded, self.single_support & self.loaded
         worst_frame = self.torque_ratio.max(axis=1)
         over = self.torque_ratio > 1
         worst_joint = int(np.argmax(np.percentile(self.torque_ratio, 90, axis=0)))
@@ -254,6 +264,17 @@ def _forward(values: Array, time: Array) -> Array:
     return np.vstack([steps, steps[-1:]])
 
 
+_MODELS: dict[tuple[int, str], RobotDynamics] = {}
+
+
+def _dynamics(robot: Robot) -> RobotDynamics:
+    """One pinocchio model per robot and process (building one takes tens of milliseconds)."""
+    key = (id(robot), robot.model_hash)
+    if key not in _MODELS:
+        _MODELS[key] = RobotDynamics(robot)
+    return _MODELS[key]
+
+
 def check_physics(
     trajectory: Trajectory, robot: Robot, config: PhysicsConfig | None = None
 ) -> PhysicsReport:
@@ -272,19 +293,21 @@ def check_physics(
     for name, values in trajectory.arrays().items():
         if values.dtype != bool and not np.all(np.isfinite(values)):
             raise DatasetError(f"the clip's {name} is not finite: cannot check its physics")
-    dynamics = RobotDynamics(robot)
+    dynamics = _dynamics(robot)
     clip_forces = None
     if trajectory.contact_forces is not None and robot.spec.feet:
         clip_forces = trajectory.contact_forces.astype(float)
     q, v, a = dynamics.configurations(trajectory, config.smoothing_hz, config.differences)
     momentum_rate = None
+    frames = trajectory.frames
     if config.differences == "forward":
         momentum_rate = dynamics.momentum_rate(q, v, trajectory.time)
+        frames = max(1, frames - 1)  # the last knot starts no step
     rows = [
         _frame(dynamics, config, q[k], v[k], a[k], trajectory.thrust[k].astype(float),
                None if clip_forces is None else clip_forces[k],
                None if momentum_rate is None else momentum_rate[k])
-        for k in range(trajectory.frames)
+        for k in range(frames)
     ]  # fmt: skip
     column = {name: np.array([row[name] for row in rows]) for name in rows[0] if name != "support"}
     return PhysicsReport(
@@ -324,7 +347,7 @@ def _frame(
         rotation, base = data.oMi[1].rotation, data.oMi[1].translation
         offset = pin.centerOfMass(model, data, q) - base
         force = momentum_rate[:3] - dynamics.mass * model.gravity.linear
-        moment = momentum_rate[3:] + np.cross(offset, force)
+        moment = momentum_rate[3:] + _cross(offset, force)
         needed[:6] = np.concatenate([rotation.T @ force, rotation.T @ moment])
     pin.computeJointJacobians(model, data, q)
     pin.updateFramePlacements(model, data)
@@ -363,7 +386,7 @@ def _frame(
         needed -= transpose @ force
     residual = needed[:6]  # the base wrench left unexplained, base frame, about the base origin
     force_world = rotation @ residual[:3]
-    moment_com = rotation @ residual[3:] - np.cross(com - base, force_world)
+    moment_com = rotation @ residual[3:] - _cross(com - base, force_world)
     torques = needed[dynamics.v_index]
     out: dict[str, Any] = {
         "feet": feet,
@@ -378,7 +401,8 @@ def _frame(
     }
     if loaded:
         ground = _ground_wrench(forces, loaded, force_world, rotation @ residual[3:], base)
-        out |= _support(ground, loaded, config.friction)
+        if np.linalg.norm(ground[0]) >= MIN_GROUND_LOAD * weight:
+            out |= _support(ground, loaded, config.friction)
     return out
 
 
@@ -426,10 +450,21 @@ def _ground_wrench(
     """The ground wrench the motion needs (force, moment about the world origin): the supplied
     corner forces plus the residual (given at the base origin, world axes)."""
     total_force = forces.sum(axis=0) + force
-    total_moment = moment + np.cross(base, force)
-    for (point, _), corner_force in zip(loaded, forces, strict=True):
-        total_moment += np.cross(point, corner_force)
+    points = np.array([point for point, _ in loaded]).reshape(-1, 3)
+    total_moment = moment + _cross(base, force) + _cross(points, forces).sum(axis=0)
     return total_force, total_moment
+
+
+def _cross(a: Array, b: Array) -> Array:
+    """Cross products along the last axis (numpy's cross is slow on small arrays)."""
+    return np.stack(
+        [
+            a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
+            a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+            a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0],
+        ],
+        axis=-1,
+    )
 
 
 def _support(
@@ -440,7 +475,7 @@ def _support(
     force, moment = ground
     points = np.array([point for point, _ in loaded])
     height = float(points[:, 2].mean())
-    tangential = float(np.linalg.norm(force[:2]))
+    tangential = float(np.abs(force[:2]).max())  # the pyramid's: |f_x|, |f_y| <= mu f_z
     if force[2] <= 1e-9:  # the ground would have to pull
         return {"friction_ratio": np.inf, "support_distance": -np.inf}
     cop = np.array(

@@ -104,7 +104,7 @@ def balance(
     for iteration in range(config.passes + 1):
         report = check(*motion)
         error, weight = cop_errors(report, config.margin)
-        inside = report.cop_inside[report.in_contact]
+        inside = report.cop_inside[report.loaded]
         size = np.linalg.norm(error, axis=1)[weight > 0]
         share = float(inside.mean()) if inside.size else 1.0
         passes.append(

@@ -58,7 +58,7 @@ class Balance:
     """The dynamic filter (motionkit/retarget/balance.py): the base moves horizontally so that
     the centre of pressure the motion needs stays inside the support."""
 
-    passes: int = 3  # filter passes (each re-solves the IK); 0: off
+    passes: int = 2  # filter passes (each re-solves the IK); 0: off
     margin: float = 0.02  # m: the CoP is kept this far inside the support polygon's edges
     # A frame's CoP error counts up to this size [m]: a larger one (an impact, a hop's
     # landing) is beyond what a smooth shift of the CoM can undo.

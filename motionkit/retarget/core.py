@@ -11,7 +11,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from motionkit.dataset import Metadata, Source, Trajectory
-from motionkit.dataset.physics import check_physics
+from motionkit.dataset.physics import PhysicsReport, check_physics
 from motionkit.mocap.naming import skeleton
 from motionkit.retarget.balance import Pass, balance
 from motionkit.retarget.config import RetargetConfig
@@ -68,20 +68,25 @@ def retarget(
         step = None if progress is None else (lambda t: progress(offset + t))
         return solve_motion(robot, goals, points, config, step)
 
+    checked: list[tuple[Array, PhysicsReport]] = []  # each motion's check, by its joints
+
+    def check(base: Array, joints: Array) -> PhysicsReport:
+        for done, report in checked:
+            if done is joints:
+                return report
+        checked.append((joints, check_physics(motion.trajectory(targets, base, joints), robot)))
+        return checked[-1][1]
+
     base, joints = solve(targets)
     metrics: dict[str, Any] = {}
     goals = targets
     if config.balance.passes:
         before = compute_metrics(robot, targets, points, base, joints)
-        physics_before = check_physics(motion.trajectory(targets, base, joints), robot)
+        physics_before = check(base, joints).summary()
         goals, base, joints, passes = balance(
-            targets,
-            solve,
-            lambda b, j: check_physics(motion.trajectory(targets, b, j), robot),
-            config.balance,
-            first=(base, joints),
+            targets, solve, check, config.balance, first=(base, joints)
         )
-        metrics |= _changes(before, physics_before.summary(), passes)
+        metrics |= _changes(before, physics_before, passes)
         metrics["balance_shift_max_m"] = round(
             float(np.abs(goals.root[:, :2, 3] - targets.root[:, :2, 3]).max()), 5
         )
@@ -89,8 +94,7 @@ def retarget(
     # tracking figures against what the IK followed: the balanced targets
     metrics = compute_metrics(robot, goals, points, base, joints) | metrics
     metrics["scale"] = targets.scale
-    trajectory = motion.trajectory(targets, base, joints)
-    metrics["physics"] = check_physics(trajectory, robot).summary()
+    metrics["physics"] = check(base, joints).summary()
     measured = clock.perf_counter()
     trajectory = motion.trajectory(targets, base, joints, metrics)
     return trajectory, Timings(planned - start, solved - planned, measured - solved)

@@ -10,10 +10,9 @@ from motionkit.robot import Robot
 from motionkit.trajopt.solve import Solution, violation
 
 ON_GROUND = 1e-3  # m: a corner at most this high is on the floor
+AIRBORNE = 0.05  # m: a knot is airborne when every sole corner is higher than this
 TARGET_TOLERANCE = 0.01  # m
 COMPLEMENTARITY_TOLERANCE = 1e-4  # N m, largest f_z c_z of any corner at any knot
-
-
 THRUST_SLACK = 1e-3  # N
 
 
@@ -57,6 +56,19 @@ def check_solution(solution: Solution, robot: Robot) -> dict[str, Any]:
         and thrust_ok
     )
     return figures
+
+
+def motion_figures(solution: Solution) -> dict[str, Any]:
+    """How long the robot flies and how fast: the time [s] of the intervals whose both knots are
+    airborne (every sole corner above AIRBORNE, so no corner can carry load), and the average
+    horizontal speed [m/s] of the CoM from the first knot to the last."""
+    com = solution.knots["com"]
+    airborne = solution.knots["corners"][:, 2::3].min(axis=1) > AIRBORNE
+    duration = solution.dt * (len(com) - 1)
+    return {
+        "airborne_s": round(float(solution.dt * np.sum(airborne[:-1] & airborne[1:])), 6),
+        "horizontal_speed_mps": float(np.linalg.norm(com[-1, :2] - com[0, :2]) / duration),
+    }
 
 
 def solver_figures(solution: Solution) -> dict[str, Any]:

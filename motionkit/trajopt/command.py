@@ -7,6 +7,7 @@ import itertools
 import multiprocessing
 import os
 import sys
+import time as clock
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 from pathlib import Path
@@ -19,7 +20,9 @@ EPILOG = """\
 Recipes for every scenario are in trajopt/*.toml. Targets are world positions [m] of the centre
 of mass; the robot starts at the origin facing -x (iRonCub's root link x axis points backwards).
 Each solution is checked (residuals, complementarity, target within 1 cm, thrust limits, MuJoCo
-replay); a request that cannot be solved exits with status 1 and writes nothing."""
+replay open loop and stabilised by base feedback through the jets, which must track the plan
+within [replay] max_base_error); a request that cannot be solved exits with status 1 and writes
+nothing. --library FILE solves every clip a flight library names (trajopt/library.toml)."""
 
 
 def add_commands(stages: argparse._SubParsersAction) -> None:
@@ -31,7 +34,9 @@ def add_commands(stages: argparse._SubParsersAction) -> None:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("--scenario", choices=SCENARIOS, required=True)
+    parser.add_argument("--scenario", choices=SCENARIOS, help="required unless --library")
+    parser.add_argument("--library", type=Path,
+                        help="a TOML naming many solves (trajopt/library.toml)")  # fmt: skip
     parser.add_argument("--config", type=Path, help="a recipe TOML (default: built-in defaults)")
     parser.add_argument("--out", type=Path, required=True, help="output folder")
     parser.add_argument("--name", help="file name stem (default: the scenario and target)")
@@ -41,7 +46,7 @@ def add_commands(stages: argparse._SubParsersAction) -> None:
                         help="hover start CoM position [m]")  # fmt: skip
     parser.add_argument("--knots", type=int)
     parser.add_argument("--quiet", action="store_true", help="hide IPOPT's iteration log")
-    parser.add_argument("--no-replay", action="store_true", help="skip the MuJoCo replay")
+    parser.add_argument("--no-replay", action="store_true", help="skip the MuJoCo replays")
     parser.add_argument(
         "--grid",
         nargs=3,
@@ -49,7 +54,7 @@ def add_commands(stages: argparse._SubParsersAction) -> None:
         help="batch mode: comma-separated target values per axis (e.g. -1,0 0 1,1.5)",
     )
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
-                        help="parallel processes in batch mode")  # fmt: skip
+                        help="parallel processes for --grid and --library")  # fmt: skip
     parser.set_defaults(handler=_run)
 
 
@@ -78,17 +83,19 @@ def _stem(config: TrajoptConfig) -> str:
 def run_one(config: TrajoptConfig, out: Path, name: str, replay: bool = True) -> dict[str, Any]:
     """Solve, check and write one scenario; raise TrajoptError (nothing written) on failure."""
     from motionkit.robot.model import ironcub
-    from motionkit.trajopt.checks import check_solution, solver_figures
+    from motionkit.trajopt.checks import check_solution, motion_figures, solver_figures
     from motionkit.trajopt.output import write_outputs
     from motionkit.trajopt.solve import solve
 
     robot = ironcub()
     solution = solve(robot, config, log=lambda line: print(f"[{name}] {line}", flush=True))
-    metrics = solver_figures(solution) | check_solution(solution, robot)
+    metrics = solver_figures(solution) | check_solution(solution, robot) | motion_figures(solution)
     if replay:
         from motionkit.trajopt.replay import replay as run_replay
+        from motionkit.trajopt.replay import stabilised_replay
 
-        metrics |= run_replay(solution, robot)
+        metrics |= run_replay(solution, robot) | stabilised_replay(solution, robot)
+        metrics["passed"] = metrics["passed"] and metrics["stabilised_tracked"]
     if not metrics["passed"]:
         raise TrajoptError(
             f"{name}: the solution fails its checks: "
@@ -108,17 +115,24 @@ def summary_line(name: str, metrics: dict[str, Any]) -> str:
         f"{metrics['residual_dynamics']:.2g}"
     )
     if "replay_base_error_max_m" in metrics:
-        text += f"; replay base error max {metrics['replay_base_error_max_m']:.3f} m"
+        text += f"; replay base error max {metrics['replay_base_error_max_m']:.3f} m open loop"
+    if "stabilised_base_error_max_m" in metrics:
+        text += f", {metrics['stabilised_base_error_max_m']:.3f} m stabilised"
     return text
 
 
-def _batch_task(task: tuple[dict[str, Any], str, str, bool]) -> tuple[str, bool, str]:
+Task = tuple[dict[str, Any], str, str, bool]  # config, out folder, clip name, replay
+Outcome = tuple[str, bool, str, dict[str, float]]  # name, solved, summary or error, figures
+FIGURES = ("solve_s", "duration_s", "airborne_s")  # what a batch reports of each clip
+
+
+def _batch_task(task: Task) -> Outcome:
     data, out, name, replay = task
     try:
         metrics = run_one(TrajoptConfig.from_dict(data), Path(out), name, replay)
     except MotionkitError as exc:
-        return name, False, str(exc)
-    return name, True, summary_line(name, metrics)
+        return name, False, str(exc), {}
+    return name, True, summary_line(name, metrics), {k: metrics[k] for k in FIGURES}
 
 
 def _compile_once(config: TrajoptConfig) -> None:
@@ -129,7 +143,11 @@ def _compile_once(config: TrajoptConfig) -> None:
     Prepared(ironcub(), config, log=lambda text: print(text, flush=True))
 
 
-def _run(args: argparse.Namespace) -> int:
+def _run(args: argparse.Namespace) -> int | None:
+    if args.library is not None:
+        return _run_library(args)
+    if args.scenario is None:
+        raise TrajoptError("--scenario is required (or --library FILE)")
     config = _config(args)
     if args.grid is None:
         name = args.name or _stem(config)
@@ -149,13 +167,74 @@ def _run(args: argparse.Namespace) -> int:
     for target in itertools.product(*axes):
         item = config.with_scenario(target=tuple(target))
         tasks.append((item.to_dict(), str(args.out), _stem(item), not args.no_replay))
-    failed = 0
-    if len(tasks) > 1 and args.jobs > 1:
-        _compile_once(config)
-    spawn = multiprocessing.get_context("spawn")  # no fork of a process that may hold threads
-    with ProcessPoolExecutor(max_workers=max(1, args.jobs), mp_context=spawn) as pool:
-        for name, ok, text in pool.map(_batch_task, tasks):
-            failed += not ok
-            print(text if ok else f"{name}: FAILED: {text}", flush=True)
+    outcomes = _run_batch(tasks, [config], args.jobs)
+    failed = sum(not ok for _, ok, _, _ in outcomes)
     print(f"{len(tasks) - failed} of {len(tasks)} targets solved; clips in {args.out}")
     return 1 if failed else None
+
+
+def _run_batch(tasks: list[Task], configs: list[TrajoptConfig], jobs: int) -> list[Outcome]:
+    """Solve the tasks in `jobs` worker processes, printing each outcome as it comes; with
+    several workers, the compiled derivatives of each distinct jet model in `configs` are built
+    here first, once, so that the workers find them cached."""
+    if len(tasks) > 1 and jobs > 1:
+        for config in {c.jets: c for c in configs}.values():
+            _compile_once(config)
+    outcomes = []
+    spawn = multiprocessing.get_context("spawn")  # no fork of a process that may hold threads
+    with ProcessPoolExecutor(max_workers=max(1, jobs), mp_context=spawn) as pool:
+        for outcome in pool.map(_batch_task, tasks):
+            name, ok, text, _ = outcome
+            print(text if ok else f"{name}: FAILED: {text}", flush=True)
+            outcomes.append(outcome)
+    return outcomes
+
+
+LIBRARY_ONLY = ("scenario", "config", "name", "target", "height", "start", "knots", "grid")
+
+
+def _run_library(args: argparse.Namespace) -> int | None:
+    from motionkit.trajopt.library import read_library
+
+    start = clock.perf_counter()
+    clashing = [f"--{key}" for key in LIBRARY_ONLY if getattr(args, key) is not None]
+    if clashing:
+        raise TrajoptError(f"--library names its own scenarios and targets: drop {clashing}")
+    solves = read_library(args.library)
+    configs = [solve.config for solve in solves]
+    if args.quiet:  # IPOPT is quiet already unless an entry asks for its log
+        configs = [replace(c, solver=replace(c.solver, print_level=0)) for c in configs]
+    replay = not args.no_replay
+    tasks = [
+        (config.to_dict(), str(args.out), solve.name, replay)
+        for solve, config in zip(solves, configs, strict=True)
+    ]
+    print(f"{args.library}: {len(tasks)} clips from {len({s.entry for s in solves})} entries")
+    outcomes = _run_batch(tasks, configs, args.jobs)
+    print(library_summary(outcomes, clock.perf_counter() - start, args.jobs))
+    print(f"clips in {args.out}")
+    return 1 if any(not ok for _, ok, _, _ in outcomes) else None
+
+
+def library_summary(outcomes: list[Outcome], wall: float, jobs: int) -> str:
+    """A table of the clips (airborne, duration and IPOPT seconds) and the totals."""
+    solved = [(name, figures) for name, ok, _, figures in outcomes if ok]
+    width = max([len(name) for name, _ in solved] + [4])
+    lines = [f"{'clip':<{width}}  airborne [s]  duration [s]  solve [s]"]
+    for name, f in solved:
+        lines.append(
+            f"{name:<{width}}  {f['airborne_s']:12.2f}  {f['duration_s']:12.2f}  "
+            f"{f['solve_s']:9.1f}"
+        )
+    airborne = sum(f["airborne_s"] for _, f in solved)
+    solve_s = sum(f["solve_s"] for _, f in solved)
+    per_clip = airborne / len(solved) if solved else 0.0
+    failed = [name for name, ok, _, _ in outcomes if not ok]
+    lines.append(
+        f"{len(solved)} of {len(outcomes)} clips solved; airborne {airborne:.1f} s in all "
+        f"({per_clip:.2f} s per clip); IPOPT {solve_s:.0f} s in all; wall {wall:.0f} s "
+        f"with --jobs {jobs}"
+    )
+    if failed:
+        lines.append(f"failed: {', '.join(failed)}")
+    return "\n".join(lines)

@@ -1,11 +1,12 @@
 """The trajectory-optimisation config: frozen dataclasses, defaults here, filled from TOML recipes.
 
 A recipe (trajopt/*.toml) has top-level keys of `TrajoptConfig` and the tables [scenario],
-[weights], [contacts], [jets] and [solver]. The CLI overrides single scenario fields.
+[weights], [contacts], [jets], [solver] and [replay]. The CLI overrides single scenario fields.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
@@ -17,6 +18,7 @@ SCENARIOS = ("takeoff", "walk_to_fly", "flight_to_waypoint", "landing", "jet_jum
 STARTS = ("stand", "hover")
 ENDS = ("stand", "hover")
 ORACLES = ("loqo", "quality-function", "probing")  # IPOPT's mu_oracle values
+GAINS = ("position_kp", "position_kd", "orientation_kp", "orientation_kd")  # of [replay]
 
 
 @dataclass(frozen=True)
@@ -101,6 +103,32 @@ class Solver:
 
 
 @dataclass(frozen=True)
+class Replay:
+    """Base feedback of the stabilised MuJoCo replay (replay.py): the desired acceleration of the
+    base is kp (plan - actual) + kd (plan velocity - actual velocity), per unit mass for the
+    position and per unit inertia (about the CoM) for the orientation; 0 turns a term off.
+
+    The attitude loop is four times as fast as the position loop (both critically damped). The
+    near-vertical jets meet a horizontal force only by thrusting the chest jets against the arm
+    jets, which also pitches the robot: with a slower attitude loop that coupling made the hover
+    of walk_to_fly.toml oscillate in pitch, growing until the base was 0.1 m off the plan at
+    6.0 s (orientation gains 100 / 20) or 8.4 s (225 / 30) and 2 m off at the end."""
+
+    position_kp: float = 25.0  # 1/s^2
+    position_kd: float = 10.0  # 1/s
+    orientation_kp: float = 400.0  # 1/s^2
+    orientation_kd: float = 40.0  # 1/s
+    # The weight of the moment about the vertical in the allocation's least squares (the others
+    # weigh 1 per N and per N m). Near-vertical jets turn the robot about the vertical only
+    # through their small horizontal components (about 0.1 N m per N at hover), so with weight 1
+    # the fit gave that moment up for small force residuals: the take-off recipe's base ended
+    # 0.14 rad off the planned orientation, mostly in yaw (0.33 at worst); with 3, 0.04 (0.07),
+    # the base position errors unchanged.
+    yaw_weight: float = 3.0
+    max_base_error: float = 0.1  # m: the largest stabilised base error of a trackable plan
+
+
+@dataclass(frozen=True)
 class TrajoptConfig:
     rate: float = 50.0  # Hz of the written clip (resampled from the knots)
     scenario: Scenario = Scenario()
@@ -108,6 +136,7 @@ class TrajoptConfig:
     contacts: Contacts = Contacts()
     jets: Jets = Jets()
     solver: Solver = Solver()
+    replay: Replay = Replay()
 
     @classmethod
     def from_toml(cls, path: Path) -> TrajoptConfig:
@@ -140,6 +169,9 @@ class TrajoptConfig:
         def bad(field: str, expected: str, value: object) -> TrajoptError:
             return TrajoptError(f"{source}: '{field}' should be {expected}, got {value!r}")
 
+        for name, value in _numbers(self):
+            if not math.isfinite(value):
+                raise bad(name, "a finite number", value)
         if s.name not in SCENARIOS:
             raise bad("scenario.name", f"one of {', '.join(SCENARIOS)}", s.name)
         if s.start not in STARTS:
@@ -172,11 +204,35 @@ class TrajoptConfig:
             raise bad("contacts.eps", "a non-empty list of positive numbers", self.contacts.eps)
         if self.rate <= 0:
             raise bad("rate", "> 0 Hz", self.rate)
+        for name in GAINS:
+            if getattr(self.replay, name) < 0:
+                raise bad(f"replay.{name}", "a gain >= 0 (0: off)", getattr(self.replay, name))
+        if self.replay.max_base_error <= 0:
+            raise bad("replay.max_base_error", "> 0 m", self.replay.max_base_error)
+        if self.replay.yaw_weight <= 0:
+            raise bad("replay.yaw_weight", "> 0", self.replay.yaw_weight)
 
     @property
     def kind(self) -> str:
         default = {"walk_to_fly": "takeoff", "flight_to_waypoint": "flight", "jet_jump": "jump"}
         return self.scenario.kind or default.get(self.scenario.name, self.scenario.name)
+
+
+def _numbers(config: TrajoptConfig) -> list[tuple[str, float]]:
+    """Every number of the config's tables (lists item by item) with its dotted field name."""
+    found = [("rate", config.rate)]
+    for table in fields(config):
+        values = getattr(config, table.name)
+        if not hasattr(values, "__dataclass_fields__"):
+            continue
+        for key, value in asdict(values).items():
+            items = value if isinstance(value, tuple) else (value,)
+            found += [
+                (f"{table.name}.{key}", item)
+                for item in items
+                if isinstance(item, float | int) and not isinstance(item, bool)
+            ]
+    return found
 
 
 def _build(cls: type, values: Any, where: str) -> Any:
