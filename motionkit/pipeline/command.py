@@ -23,10 +23,12 @@ EPILOG = """\
 Stages, in order, each into its folder of OUT:
   retarget   walk/      CMU clips (the retarget recipe's ids, fetched into the cache, or every
                         .bvh/.amc under --mocap-dir) onto the robot
-  trajopt    flight/    one flight per trajopt recipe (take-off, flight, landing, jump,
-                        walk-to-fly), each checked and replayed in MuJoCo
+  trajopt    flight/    one flight per trajopt recipe and every clip of the flight library
+                        (take-offs, flights, landings, jumps, walk-to-fly), each checked
+                        and replayed in MuJoCo
   jet_ident  jet/       simulated P250 bench logs and the LSTM thrust model fitted to them
-  datasets   datasets/  every clip validated against the robot; index.json
+  datasets   datasets/  every clip validated against the robot, its physics figures shown;
+                        index.json
   train      train/     the AMP + PPO run (tiny CPU recipe; the paper's GPU recipe with --full)
 A stage runs again only when what it reads changed: input files, its resolved recipe, the
 stages before it, motionkit's code for it or its main libraries (the hash is its key, kept in

@@ -20,6 +20,8 @@ class RetargetStage:
 @dataclass(frozen=True)
 class TrajoptStage:
     recipes: tuple[str, ...] = field(default_factory=tuple)  # one flight per recipe
+    library: str = ""  # a flight library (trajopt/library.toml): every clip it names
+    jobs: int = 0  # processes for the library, 0 = one per CPU
     replay: bool = True  # check every flight by a MuJoCo replay
 
 
@@ -65,7 +67,7 @@ class PipelineConfig:
         """Every recipe file named exists; the choices are valid."""
         named = {
             "[retarget] recipe": [self.retarget.recipe],
-            "[trajopt] recipes": list(self.trajopt.recipes),
+            "[trajopt] recipes or library": [*self.trajopt.recipes, self.trajopt.library],
             "[jet_ident] recipe": [self.jet_ident.recipe],
             "[train] recipe": [self.train.recipe],
             "[train] full_recipe": [self.train.full_recipe],
@@ -73,7 +75,7 @@ class PipelineConfig:
         for key, paths in named.items():
             if not any(paths):
                 raise PipelineError(f"{self.source}: {key} is missing (a path to a recipe)")
-            for relative in paths:
+            for relative in filter(None, paths):
                 if not self.resolve(relative).is_file():
                     raise PipelineError(
                         f"{self.source}: {key}: {relative} does not exist "
@@ -81,5 +83,6 @@ class PipelineConfig:
                     )
         if self.train.jet not in ("lstm", "ideal"):
             raise PipelineError(f"{self.source}: [train] jet should be 'lstm' or 'ideal'")
-        if self.retarget.jobs < 0:
-            raise PipelineError(f"{self.source}: [retarget] jobs should be >= 0")
+        for table in ("retarget", "trajopt"):
+            if getattr(self, table).jobs < 0:
+                raise PipelineError(f"{self.source}: [{table}] jobs should be >= 0")

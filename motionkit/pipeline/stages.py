@@ -90,18 +90,21 @@ def retarget(ctx: Context) -> Outcome:
 
 
 def trajopt(ctx: Context) -> Outcome:
-    from motionkit.trajopt.command import run_one, summary_line
+    from motionkit.trajopt.command import run_one, solve_library, summary_line
     from motionkit.trajopt.config import TrajoptConfig
+    from motionkit.trajopt.library import read_library
 
-    recipes = [ctx.config.resolve(r) for r in ctx.config.trajopt.recipes]
+    stage = ctx.config.trajopt
     configs = {}
-    for recipe in recipes:
+    for recipe in (ctx.config.resolve(r) for r in stage.recipes):
         config = TrajoptConfig.from_toml(recipe)
         configs[recipe.stem] = replace(config, solver=replace(config.solver, print_level=0))
-    replay = ctx.config.trajopt.replay
+    library = ctx.config.resolve(stage.library) if stage.library else None
+    solves = read_library(library) if library else []
     parts = (
         {name: c.to_dict() for name, c in configs.items()},
-        replay,
+        {s.name: s.config.to_dict() for s in solves},
+        stage.replay,
         source_digest(["trajopt", "dataset", "robot"]),
         versions("casadi", "adam-robotics", "mujoco"),
     )
@@ -110,10 +113,23 @@ def trajopt(ctx: Context) -> Outcome:
         solve_s = 0.0
         for i, (name, config) in enumerate(configs.items(), 1):
             print(f"flight {i}/{len(configs)}: {name} ({config.scenario.knots} knots)", flush=True)
-            metrics = run_one(config, folder, name, replay)
+            metrics = run_one(config, folder, name, stage.replay)
             print(summary_line(name, metrics), flush=True)
             solve_s += metrics["solve_s"]
-        return f"{len(configs)} flights ({', '.join(configs)}), IPOPT {solve_s:.0f} s, checked"
+        made = [f"{len(configs)} flights ({', '.join(configs)})"] if configs else []
+        if library is not None:
+            jobs = stage.jobs or os.cpu_count() or 1
+            outcomes = solve_library(library, folder, jobs, stage.replay, quiet=True)
+            failed = [f"{name}: {text}" for name, ok, text, _ in outcomes if not ok]
+            if failed:
+                raise PipelineError(
+                    f"trajopt: {len(failed)} of {len(outcomes)} library clips failed: "
+                    + "; ".join(failed)
+                )
+            airborne = sum(figures["airborne_s"] for *_, figures in outcomes)
+            solve_s += sum(figures["solve_s"] for *_, figures in outcomes)
+            made.append(f"{len(outcomes)} library clips ({airborne:.0f} s airborne)")
+        return f"{' and '.join(made)}, IPOPT {solve_s:.0f} s, checked"
 
     return ctx.run("trajopt", parts, "flight", work)
 

@@ -194,26 +194,33 @@ LIBRARY_ONLY = ("scenario", "config", "name", "target", "height", "start", "knot
 
 
 def _run_library(args: argparse.Namespace) -> int | None:
-    from motionkit.trajopt.library import read_library
-
     start = clock.perf_counter()
     clashing = [f"--{key}" for key in LIBRARY_ONLY if getattr(args, key) is not None]
     if clashing:
         raise TrajoptError(f"--library names its own scenarios and targets: drop {clashing}")
-    solves = read_library(args.library)
-    configs = [solve.config for solve in solves]
-    if args.quiet:  # IPOPT is quiet already unless an entry asks for its log
-        configs = [replace(c, solver=replace(c.solver, print_level=0)) for c in configs]
-    replay = not args.no_replay
-    tasks = [
-        (config.to_dict(), str(args.out), solve.name, replay)
-        for solve, config in zip(solves, configs, strict=True)
-    ]
-    print(f"{args.library}: {len(tasks)} clips from {len({s.entry for s in solves})} entries")
-    outcomes = _run_batch(tasks, configs, args.jobs)
+    outcomes = solve_library(args.library, args.out, args.jobs, not args.no_replay, args.quiet)
     print(library_summary(outcomes, clock.perf_counter() - start, args.jobs))
     print(f"clips in {args.out}")
     return 1 if any(not ok for _, ok, _, _ in outcomes) else None
+
+
+def solve_library(
+    path: Path, out: Path, jobs: int, replay: bool = True, quiet: bool = False
+) -> list[Outcome]:
+    """Solve, check and write every clip of a flight library in `jobs` processes; a clip that
+    fails is reported in its outcome and writes nothing."""
+    from motionkit.trajopt.library import read_library
+
+    solves = read_library(path)
+    configs = [solve.config for solve in solves]
+    if quiet:  # IPOPT is quiet already unless an entry asks for its log
+        configs = [replace(c, solver=replace(c.solver, print_level=0)) for c in configs]
+    tasks = [
+        (config.to_dict(), str(out), solve.name, replay)
+        for solve, config in zip(solves, configs, strict=True)
+    ]
+    print(f"{path}: {len(tasks)} clips from {len({s.entry for s in solves})} entries", flush=True)
+    return _run_batch(tasks, configs, jobs)
 
 
 def library_summary(outcomes: list[Outcome], wall: float, jobs: int) -> str:

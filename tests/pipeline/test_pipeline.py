@@ -54,14 +54,17 @@ def test_digest_depends_on_every_part() -> None:
 
 def test_the_shipped_recipe_names_existing_files() -> None:
     config = PipelineConfig.from_toml(REPO / "pipeline" / "tiny_cpu.toml")
-    assert len(config.trajopt.recipes) == 5 and config.train.jet == "lstm"
+    assert len(config.trajopt.recipes) == 1 and config.train.jet == "lstm"
+    assert config.resolve(config.trajopt.library) == REPO / "trajopt" / "library.toml"
 
 
 def test_recipe_errors_name_the_key(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     recipe = tiny_recipes(tmp_path)
     text = recipe.read_text()
     recipe.write_text(text.replace('"takeoff.toml"', '"takeoff.toml", "missing.toml"'))
-    with pytest.raises(PipelineError, match=r"\[trajopt\] recipes: missing.toml does not exist"):
+    with pytest.raises(
+        PipelineError, match=r"\[trajopt\] recipes or library: missing.toml does not exist"
+    ):
         PipelineConfig.from_toml(recipe)
     recipe.write_text(text.replace('recipe = "jet.toml"', ""))
     with pytest.raises(PipelineError, match=r"\[jet_ident\] recipe is missing"):
@@ -155,6 +158,7 @@ def test_pipeline_end_to_end_then_cached(tmp_path: Path, capsys) -> None:
     assert str(out / "walk") in config and str(out / "flight") in config
     text = capsys.readouterr().out
     assert "motionkit view" in text and "stage" in text
+    assert "CoP in 1" in text  # the datasets stage's physics table, a line per clip
 
     stamp = (out / "train" / "summary.json").stat().st_mtime_ns
     assert main(argv) == 0  # nothing changed: every stage cached
