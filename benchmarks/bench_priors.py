@@ -63,18 +63,22 @@ def measure(clip: ClipInput, config: RetargetConfig, out: Path) -> dict[str, flo
 
 
 HEADER = (
-    f"{'clip':<16} {'setting':<9} {'CoP in':>7} {'tau ok':>7} {'worst':>14} {'fall ff':>8} "
+    f"{'clip':<20} {'setting':<9} {'CoP in':>7} {'tau ok':>7} {'worst':>14} {'fall ff':>8} "
     f"{'fall pd':>8} {'slide':>6} {'sink':>5} {'lim':>4} {'feet':>5} {'knees':>6} {'s':>5}"
 )
 UNITS = (
-    f"{'':<16} {'':<9} {'single':>7} {'single':>7} {'joint':>14} {'1 s':>8} {'1 s':>8} "
+    f"{'':<20} {'':<9} {'single':>7} {'single':>7} {'joint':>14} {'1 s':>8} {'1 s':>8} "
     f"{'cm/s':>6} {'mm':>5} {'':>4} {'cm':>5} {'cm':>6} {'':>5}"
 )
 
 
+def share(value: float | None) -> str:
+    return "-" if value is None else f"{value:.3f}"  # None: no frame of that kind
+
+
 def row(name: str, setting: str, m: dict[str, float | str]) -> str:
     return (
-        f"{name:<16} {setting:<9} {m['cop_single']:>7.3f} {m['torque_single']:>7.3f} "
+        f"{name[:20]:<20} {setting:<9} {share(m['cop_single']):>7} {share(m['torque_single']):>7} "
         f"{m['worst']:>14} {m['falls_ff']:>8.3f} {m['falls_pd']:>8.3f} {m['slide']:>6.2f} "
         f"{m['sink']:>5.2f} {m['limits']:>4d} {m['feet']:>5.2f} {m['knees']:>6.2f} "
         f"{m['seconds']:>5.1f}"
