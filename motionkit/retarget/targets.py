@@ -19,6 +19,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from motionkit.errors import RetargetError
+from motionkit.filters import low_pass
 from motionkit.retarget.config import RetargetConfig
 from motionkit.retarget.points import Point
 from motionkit.robot import Robot
@@ -51,17 +52,6 @@ class Targets:
 
 def _unit(vectors: Array) -> Array:
     return vectors / np.maximum(np.linalg.norm(vectors, axis=-1, keepdims=True), 1e-9)
-
-
-def low_pass(values: Array, rate: float, cutoff: float) -> Array:
-    """Zero-phase 2nd-order Butterworth low-pass along the first axis (unchanged when the
-    cut-off is at or above the Nyquist frequency or the clip is too short to pad)."""
-    from scipy.signal import butter, sosfiltfilt
-
-    if cutoff >= 0.5 * rate or len(values) < 10:
-        return values
-    sos = butter(2, cutoff, fs=rate, output="sos")
-    return sosfiltfilt(sos, values, axis=0, padlen=min(len(values) - 1, int(rate / cutoff)))
 
 
 def body_frames(left: Array, up: Array) -> Array:

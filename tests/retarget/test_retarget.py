@@ -58,10 +58,11 @@ def test_output_is_a_valid_clip(result, tmp_path: Path) -> None:
 
 
 def test_clip_holds_the_scaled_human_it_was_retargeted_to(result, tmp_path: Path) -> None:
+    from motionkit.filters import low_pass
     from motionkit.mocap import LANDMARKS
     from motionkit.retarget.metrics import Kinematics
     from motionkit.retarget.points import robot_points
-    from motionkit.retarget.targets import RobotGeometry, low_pass
+    from motionkit.retarget.targets import RobotGeometry
     from motionkit.robot.geometry import to_rotation
 
     landmarks, trajectory = result
@@ -135,7 +136,7 @@ def test_segment_distance_by_hand() -> None:
 
 
 def test_low_pass_keeps_gait_and_drops_jitter() -> None:
-    from motionkit.retarget.targets import low_pass
+    from motionkit.filters import low_pass
 
     rate = 120.0
     t = np.arange(600) / rate
