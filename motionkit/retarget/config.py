@@ -59,7 +59,9 @@ class Balance:
     the centre of pressure the motion needs stays inside the support."""
 
     passes: int = 2  # filter passes (each re-solves the IK); 0: off
-    margin: float = 0.02  # m: the CoP is kept this far inside the support polygon's edges
+    # m: the CoP is aimed this far inside the support polygon's edges (one larger than the
+    # polygon's inradius aims at its centre: a sole is about 3 cm from centre to side edge)
+    margin: float = 0.04
     # A frame's CoP error counts up to this size [m]: a larger one (an impact, a hop's
     # landing) is beyond what a smooth shift of the CoM can undo.
     error_cap: float = 0.1
