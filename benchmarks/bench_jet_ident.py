@@ -102,9 +102,9 @@ def thrust_step_cost(params: LSTMThrust, batch: int) -> float:
 def mjx_step_cost(batch: int) -> tuple[float, float]:
     """Seconds of one jitted MJX step of iRonCub for `batch` environments, and compile time."""
     import mujoco
-    from mujoco import mjx
 
     from motionkit.robot import ironcub
+    from motionkit.train.mjx import mjx
 
     model = mujoco.MjModel.from_xml_string(ironcub().mjcf_text)
     data = mujoco.MjData(model)

@@ -10,7 +10,6 @@ import contextlib
 import http.client
 import re
 import sys
-import time
 import urllib.error
 import urllib.request
 from collections.abc import Iterable
@@ -20,6 +19,7 @@ from typing import IO, NamedTuple, Protocol
 from motionkit import __version__
 from motionkit.errors import MocapError
 from motionkit.outputs import atomic_output
+from motionkit.progress import LineProgress
 from motionkit.robot.model import cache_dir
 
 CMU_BASE_URL = "http://mocap.cs.cmu.edu"
@@ -182,34 +182,28 @@ class _Bar(Protocol):
 
 
 class _LineBar:
-    """Fallback progress bar: one \\r-rewritten line on stderr."""
+    """Fallback progress bar (motionkit.progress: a rewritten line on a terminal)."""
 
     def __init__(self, name: str, total: int | None) -> None:
-        self.name, self.total, self.received, self.shown = name, total, 0, 0.0
+        self.total, self.received = total, 0
+        self.line = LineProgress(name)
 
     def update(self, n: int) -> None:
         self.received += n
-        now = time.monotonic()
-        if now - self.shown >= 0.1:
-            self.shown = now
-            self._draw()
-
-    def _draw(self) -> None:
         done = f"{self.received / 1024:.1f}"
         if self.total:
-            line = f"{done}/{self.total / 1024:.1f} KiB ({100 * self.received // self.total}%)"
+            text = f"{done}/{self.total / 1024:.1f} KiB ({100 * self.received // self.total}%)"
         else:
-            line = f"{done} KiB"
-        sys.stderr.write(f"\r{self.name}: {line}")
-        sys.stderr.flush()
+            text = f"{done} KiB"
+        self.line.show(text)
 
     def close(self) -> None:
-        self._draw()
-        sys.stderr.write("\n")
-        sys.stderr.flush()
+        self.line.close()
 
 
 def _progress_bar(name: str, total: int | None) -> _Bar:
+    if not sys.stderr.isatty():  # a log: plain lines (tqdm would write carriage returns)
+        return _LineBar(name, total)
     try:
         from tqdm import tqdm
     except ImportError:  # tqdm is optional

@@ -5,7 +5,6 @@ from __future__ import annotations
 import functools
 import multiprocessing
 import re
-import sys
 import time as clock
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -14,6 +13,7 @@ from pathlib import Path
 
 from motionkit.dataset import Source
 from motionkit.errors import MotionkitError, RetargetError
+from motionkit.progress import LineProgress
 from motionkit.retarget.config import RetargetConfig
 from motionkit.robot import Robot
 
@@ -199,19 +199,13 @@ def _load_robot(urdf: Path | None, spec: Path | None) -> Robot:
 
 
 class _FrameBar:
-    """Frames done of one clip, one \\r-rewritten line on stderr (at most 10 updates/s)."""
+    """Frames done of one clip (motionkit.progress: a rewritten line on a terminal)."""
 
     def __init__(self, name: str) -> None:
-        self.name, self.shown = name, 0.0
+        self.line = LineProgress(name)
 
     def __call__(self, done: int, total: int) -> None:
-        now = clock.monotonic()
-        if now - self.shown >= 0.1 or done == total:
-            self.shown = now
-            sys.stderr.write(f"\r{self.name}: IK frame {done}/{total}")
-            sys.stderr.flush()
+        self.line.show(f"IK frame {done}/{total}")
 
     def close(self) -> None:
-        if self.shown:
-            sys.stderr.write("\r\033[K")
-            sys.stderr.flush()
+        self.line.close(keep=False)  # the clip's summary line follows

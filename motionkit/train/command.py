@@ -85,7 +85,8 @@ def require_train_extra() -> None:
         import jax  # noqa: F401
         import mujoco  # noqa: F401
         import optax  # noqa: F401
-        from mujoco import mjx  # noqa: F401
+
+        from motionkit.train.mjx import mjx  # noqa: F401
     except ImportError as exc:
         raise TrainError(f"{EXTRA} ({exc.name} is missing)") from exc
 

@@ -34,7 +34,6 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 from flax import struct
-from mujoco import mjx
 
 from motionkit.jet_ident.step import LSTMThrust
 from motionkit.robot import Robot
@@ -43,6 +42,7 @@ from motionkit.train import waypoints
 from motionkit.train.amp import PriorData, amp_features
 from motionkit.train.config import EnvConfig, RewardConfig
 from motionkit.train.jets import Jets
+from motionkit.train.mjx import mjx
 from motionkit.train.rewards import task_reward, task_terms
 from motionkit.train.spatial import facing_angle, quat_mul, quat_to_matrix, remove_heading
 

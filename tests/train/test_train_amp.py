@@ -167,11 +167,11 @@ def test_simulator_features_equal_the_dataset_features(env, robot) -> None:
     """chi from an MJX state equals motionkit.dataset.amp_features of the same frames (the
     thrust as a share of T_max above the ideal jet's idle, 0 N)."""
     import mujoco
-    from mujoco import mjx
 
     from motionkit.dataset import amp_features
     from motionkit.dataset.synthetic import synthetic_trajectory
     from motionkit.robot.geometry import quat_rotate_inverse
+    from motionkit.train.mjx import mjx
 
     clip = synthetic_trajectory(robot, 0.5, 10.0, thrust=80.0, turn_rate=0.7, seed=3)
     expected = amp_features(clip, robot)

@@ -26,3 +26,14 @@ def test_refusals(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["train", "ablation", "--config", str(recipe), "--out", str(tmp_path)]) == 2
     assert "needs [priors.walk] and [priors.flight]" in capsys.readouterr().err
     assert not (tmp_path / "train.csv").exists()
+
+
+def test_importing_the_trainer_prints_nothing() -> None:
+    """MJX's import prints a notice per missing warp package; the trainer imports it quietly."""
+    import subprocess
+    import sys
+
+    code = "import motionkit.train.env, motionkit.train.train"
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout == ""
