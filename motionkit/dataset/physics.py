@@ -22,6 +22,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from motionkit.dataset.trajectory import Trajectory
 from motionkit.errors import DatasetError
+from motionkit.extras import require
 from motionkit.filters import low_pass
 from motionkit.robot import Robot
 from motionkit.robot.geometry import Array, to_rotation
@@ -205,12 +206,9 @@ class RobotDynamics:
     """The robot as a pinocchio floating-base model, with the frames the check needs."""
 
     def __init__(self, robot: Robot) -> None:
-        try:
-            import pinocchio as pin
-        except ImportError as exc:
-            raise DatasetError(
-                "the physics check needs pinocchio: pip install 'motionkit[ik]'"
-            ) from exc
+        require("ik", "the physics check", DatasetError, ("pinocchio",))
+        import pinocchio as pin
+
         self.pin, self.robot = pin, robot
         model = robot.model.copy()
         for link in model.links.values():

@@ -16,6 +16,7 @@ import numpy as np
 
 from motionkit.dataset.trajectory import Trajectory
 from motionkit.errors import DatasetError
+from motionkit.extras import require
 from motionkit.robot import Robot
 from motionkit.robot.geometry import to_rotation
 
@@ -44,10 +45,9 @@ def track_windows(
     """Open-loop tracking of every `window`-second stretch (starts `stride` s apart)."""
     from motionkit.dataset.physics import check_physics
 
-    try:
-        import mujoco
-    except ImportError as exc:
-        raise DatasetError("tracking a clip needs MuJoCo: pip install 'motionkit[train]'") from exc
+    require("train", "tracking a clip", DatasetError, ("mujoco",))
+    import mujoco
+
     if trajectory.joint_names != robot.joint_names:
         raise DatasetError(f"the clip's joints are not those of {robot.name}")
     model = mujoco.MjModel.from_xml_string(robot.mjcf_text)

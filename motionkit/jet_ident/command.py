@@ -9,12 +9,12 @@ from pathlib import Path
 from typing import Any
 
 from motionkit.errors import JetIdentError
+from motionkit.extras import require
 from motionkit.jet_ident.benchlog import COLUMNS, read_log
 from motionkit.jet_ident.config import JetIdentConfig
 from motionkit.outputs import write_text_atomic
 
 # The handlers import the JAX modules when they run: `motionkit` works without the extra.
-EXTRA = "jet-ident needs the [train] extra (jax, flax, optax): pip install 'motionkit[train]'"
 
 EPILOG = f"""\
 Bench logs are CSV files with a header naming the columns {", ".join(COLUMNS)}
@@ -91,12 +91,7 @@ def add_commands(stages: argparse._SubParsersAction) -> None:
 
 
 def _require_train_extra() -> None:
-    try:
-        import flax  # noqa: F401
-        import jax  # noqa: F401
-        import optax  # noqa: F401
-    except ImportError as exc:
-        raise JetIdentError(f"{EXTRA} ({exc.name} is missing)") from exc
+    require("train", "jet-ident", JetIdentError, ("jax", "flax", "optax"))
 
 
 def _config(path: Path | None) -> JetIdentConfig:

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import importlib
 import json
 import sys
 import time
 from pathlib import Path
 
 from motionkit.errors import MotionkitError, PipelineError
+from motionkit.extras import require
 from motionkit.outputs import write_text_atomic
 from motionkit.pipeline.cache import Outcome
 from motionkit.pipeline.config import PipelineConfig
@@ -17,7 +17,6 @@ from motionkit.pipeline.stages import STAGES, Context
 
 DEFAULT_CONFIG = Path("pipeline/tiny_cpu.toml")
 STAGE_NAMES = tuple(name for name, _ in STAGES)
-NEEDED = ("placo", "pinocchio", "casadi", "adam", "jax", "flax", "optax", "mujoco")
 
 EPILOG = """\
 Stages, in order, each into its folder of OUT:
@@ -72,14 +71,8 @@ def add_commands(stages: argparse._SubParsersAction) -> None:
 
 
 def _require_extras() -> None:
-    for module in NEEDED:
-        try:
-            importlib.import_module(module)
-        except ImportError as exc:
-            raise PipelineError(
-                f"the pipeline needs every stage's extra ({module} is missing): "
-                "pip install 'motionkit[all]'"
-            ) from exc
+    for extra in ("ik", "trajopt", "train"):
+        require(extra, "the pipeline (every stage)", PipelineError)
 
 
 def _run(args: argparse.Namespace) -> int:

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from motionkit.errors import RetargetError
+from motionkit.extras import require
 from motionkit.retarget.bodies import avoided, capsules, host_link, with_collision_cylinders
 from motionkit.retarget.config import RetargetConfig, Weights
 from motionkit.retarget.points import Point
@@ -78,10 +79,8 @@ def solve_motion(
     progress: Callable[[int], None] | None = None,
 ) -> tuple[Array, Array]:
     """Base poses (T, 4, 4) and joint positions (T, J) in spec order."""
-    try:
-        import placo
-    except ImportError as exc:
-        raise RetargetError("retargeting needs PlaCo: pip install 'motionkit[ik]'") from exc
+    require("ik", "retargeting", RetargetError, ("placo",))
+    import placo
 
     wrapper = _load_wrapper(placo, robot, points, config.self_collisions)
     for name, value in robot.spec.posture_angles().items():

@@ -8,11 +8,8 @@ from dataclasses import replace
 from pathlib import Path
 
 from motionkit.errors import TrainError
+from motionkit.extras import require
 
-EXTRA = (
-    "train needs the [train] extra (jax, flax, optax, mujoco, mujoco-mjx): "
-    "pip install 'motionkit[train]'"
-)
 PRIOR_CHOICES = "walk,flight|walk|flight|none"
 
 EPILOG = """\
@@ -80,15 +77,8 @@ def _common(parser: argparse.ArgumentParser, priors: bool = True, required: bool
 
 
 def require_train_extra() -> None:
-    try:
-        import flax  # noqa: F401
-        import jax  # noqa: F401
-        import mujoco  # noqa: F401
-        import optax  # noqa: F401
-
-        from motionkit.train.mjx import mjx  # noqa: F401
-    except ImportError as exc:
-        raise TrainError(f"{EXTRA} ({exc.name} is missing)") from exc
+    require("train", "train", TrainError, ("jax", "flax", "optax", "mujoco"))
+    from motionkit.train.mjx import mjx  # noqa: F401  (quietly: no warp notice)
 
 
 def parse_priors(text: str | None, available: list[str]) -> list[str]:

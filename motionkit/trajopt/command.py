@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from motionkit.errors import MotionkitError, TrajoptError
+from motionkit.extras import require
 from motionkit.trajopt.config import SCENARIOS, TrajoptConfig
 
 EPILOG = """\
@@ -144,6 +145,7 @@ def _compile_once(config: TrajoptConfig) -> None:
 
 
 def _run(args: argparse.Namespace) -> int | None:
+    require("trajopt", "motionkit trajopt", TrajoptError)  # before solve.py imports casadi
     if args.library is not None:
         return _run_library(args)
     if args.scenario is None:

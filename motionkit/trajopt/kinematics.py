@@ -16,6 +16,7 @@ import casadi as cs
 import numpy as np
 
 from motionkit.errors import TrajoptError
+from motionkit.extras import require
 from motionkit.robot import Robot
 from motionkit.robot.model import cached_file
 from motionkit.robot.spec import THRUST_AXIS
@@ -68,12 +69,9 @@ class RobotKinematics:
     """CasADi kinematics of one robot; built once per process (a few seconds)."""
 
     def __init__(self, robot: Robot) -> None:
-        try:
-            from adam.casadi import KinDynComputations
-        except ImportError as exc:
-            raise TrajoptError(
-                "trajectory optimisation needs CasADi and adam: pip install 'motionkit[trajopt]'"
-            ) from exc
+        require("trajopt", "trajectory optimisation", TrajoptError)
+        from adam.casadi import KinDynComputations
+
         self.robot = robot
         self.corner_frames = tuple(c for foot in robot.spec.feet for c in foot.corners)
         self.jet_frames = tuple(jet.frame for jet in robot.spec.jets)

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from motionkit.errors import ViewerError
+from motionkit.extras import require
 from motionkit.viewer.skeleton import SKELETON_OFFSET
 
 VIEW_EPILOG = """\
@@ -57,14 +58,9 @@ def _view(args: argparse.Namespace) -> int:
         raise ViewerError(
             f"--skeleton-offset must be a finite distance [m], got {args.skeleton_offset}"
         )
-    try:
-        from motionkit.viewer.app import ViewerApp
-    except ImportError as exc:
-        raise ViewerError(
-            f"the viewer needs the [viewer] extra ({exc.name} is missing): "
-            "pip install 'motionkit[viewer]'"
-        ) from exc
+    require("viewer", "the viewer", ViewerError)
     from motionkit.robot import load_robot
+    from motionkit.viewer.app import ViewerApp
     from motionkit.viewer.sources import resolve_clips
 
     clips = resolve_clips(args.path) if args.path is not None else []  # before the robot: fast
