@@ -3,8 +3,9 @@
 Each window starts from the clip's own state at that frame; the joints follow the clip by PD
 (the spec's gains) plus its inverse-dynamics torques as feed-forward (motionkit.dataset.physics),
 within the effort limits, and the jets give the clip's thrust: nothing acts on the base. A
-window falls when the base drops more than `drop` below the clip's base or tilts more than
-`tilt` [rad] from it. Without the feed-forward (`feedforward=False`) the PD alone holds the
+window falls when the base comes down more than `drop` below its height standing in the spec's
+posture, or tilts more than `tilt` [rad] from the clip's (a flight that drifts off its plan does
+not fall). Without the feed-forward (`feedforward=False`) the PD alone holds the
 joints, and sags under load.
 """
 
@@ -19,6 +20,7 @@ from motionkit.errors import DatasetError
 from motionkit.extras import require
 from motionkit.robot import Robot
 from motionkit.robot.geometry import to_rotation
+from motionkit.robot.mjcf import _standing_height
 
 
 @dataclass(frozen=True)
@@ -63,6 +65,7 @@ def track_windows(
     )
     rotations = to_rotation(trajectory.base_orientation.astype(float))
     up = rotations.apply([0.0, 0.0, 1.0])
+    floor = _standing_height(robot, robot.spec.posture_angles()) - drop  # base lower: fallen
     starts = np.arange(time[0], time[-1] - window + 1e-9, stride)
     fell = []
     for start in starts:
@@ -93,8 +96,7 @@ def track_windows(
             frame = min(int(np.searchsorted(time, now)), len(time) - 1)
             body_up = data.xmat[1].reshape(3, 3)[:, 2]
             fallen = bool(
-                data.qpos[2] < trajectory.base_position[frame, 2] - drop
-                or np.arccos(np.clip(body_up @ up[frame], -1, 1)) > tilt
+                data.qpos[2] < floor or np.arccos(np.clip(body_up @ up[frame], -1, 1)) > tilt
             )
         fell.append(fallen)
     return Tracking(len(fell), int(sum(fell)), tuple(map(float, starts)), tuple(fell))
