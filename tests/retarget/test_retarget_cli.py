@@ -57,6 +57,12 @@ def test_recipe_clips_and_kind(tmp_path: Path, capsys) -> None:
     assert main(["retarget", "--config", str(recipe), "--out", str(out), "--kind", "stand"]) == 0
     meta = read(out / "a.mcap").metadata
     assert meta.kind == "stand" and meta.config["iterations"] == 3
+    assert meta.config["balance"]["passes"] == 2 and "balance_shift_max_m" in meta.metrics
+    assert "cop_inside_share" in meta.metrics["physics"]
+    argv = ["retarget", "--config", str(recipe), "--out", str(tmp_path / "plain"), "--no-balance"]
+    assert main(argv) == 0
+    plain = read(tmp_path / "plain" / "a.mcap").metadata
+    assert plain.config["balance"]["passes"] == 0 and "balance_shift_max_m" not in plain.metrics
     assert main(["retarget", "--config", str(recipe), "--out", str(out), "--kind", "amble"]) == 2
     assert "kind 'amble'" in capsys.readouterr().err
 
