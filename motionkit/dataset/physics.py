@@ -2,7 +2,7 @@
 
 Inverse dynamics along the clip (pinocchio, floating base) gives the external wrench the motion
 needs. Less the jets' thrust, that is what the ground must supply: its centre of pressure (CoP)
-must lie in the support polygon of the feet in contact, its force in the friction cone. The
+must lie in the support polygon of the feet in contact, its force in the friction pyramid. The
 contact forces are the clip's own (trajopt clips carry them per sole corner) or else the least-
 squares split over the loaded sole corners within friction pyramids; what they cannot supply is
 the residual. Joint torques follow from those forces and are compared with the effort limits.
@@ -65,9 +65,9 @@ class PhysicsConfig:
     contact_height: float = 0.005
     contact_speed: float = 0.1
     # dataset validate warns when a clip falls short of these shares (0..1)
-    min_cop_inside_share: float = 0.9  # of frames with a foot in contact
+    min_cop_inside_share: float = 0.9  # of frames whose ground carries a load (MIN_GROUND_LOAD)
     min_torque_within_share: float = 0.9  # of all frames
-    min_friction_within_share: float = 0.9  # of frames with a foot in contact
+    min_friction_within_share: float = 0.9  # of the same frames
     min_explained_share: float = 0.9  # frames whose residual is within residual_tolerance
 
     def __post_init__(self) -> None:

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import itertools
 import multiprocessing
 import os
 import sys
 import time as clock
+from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 from pathlib import Path
@@ -184,12 +186,37 @@ def _run_batch(tasks: list[Task], configs: list[TrajoptConfig], jobs: int) -> li
             _compile_once(config)
     outcomes = []
     spawn = multiprocessing.get_context("spawn")  # no fork of a process that may hold threads
-    with ProcessPoolExecutor(max_workers=max(1, jobs), mp_context=spawn) as pool:
+    with (
+        _single_threaded_workers(),
+        ProcessPoolExecutor(max_workers=max(1, jobs), mp_context=spawn) as pool,
+    ):
         for outcome in pool.map(_batch_task, tasks):
             name, ok, text, _ = outcome
             print(text if ok else f"{name}: FAILED: {text}", flush=True)
             outcomes.append(outcome)
     return outcomes
+
+
+THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+@contextlib.contextmanager
+def _single_threaded_workers() -> Iterator[None]:
+    """Workers spawned in this block run their BLAS on one thread (unless the user set it):
+    one solve per core, and the same IPOPT iterations as a single-threaded solve. With
+    threaded BLAS, near-degenerate solves of the library took other paths and some ran out of
+    iterations."""
+    saved = {name: os.environ.get(name) for name in THREAD_VARIABLES}
+    for name in THREAD_VARIABLES:
+        os.environ.setdefault(name, "1")
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
 
 
 LIBRARY_ONLY = ("scenario", "config", "name", "target", "height", "start", "knots", "grid")
