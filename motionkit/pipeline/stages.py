@@ -116,7 +116,7 @@ def trajopt(ctx: Context) -> Outcome:
             metrics = run_one(config, folder, name, stage.replay)
             print(summary_line(name, metrics), flush=True)
             solve_s += metrics["solve_s"]
-        made = [f"{len(configs)} flights ({', '.join(configs)})"] if configs else []
+        made = [f"{len(configs)} flight(s) ({', '.join(configs)})"] if configs else []
         if library is not None:
             jobs = stage.jobs or os.cpu_count() or 1
             outcomes = solve_library(library, folder, jobs, stage.replay, quiet=True)
@@ -222,7 +222,7 @@ def print_physics(rows: list[dict]) -> None:
         )
     print(
         "CoP in 1: single-support frames whose needed centre of pressure is in the stance sole; "
-        "tau ok: frames within the effort limits; mu ok: within the friction cone; resid p95: "
+        "tau ok: frames within the effort limits; mu ok: within the friction pyramid; resid p95: "
         "the base force contacts and thrust cannot explain [body weights] (flights: at the knots)"
     )
 
