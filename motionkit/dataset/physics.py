@@ -11,7 +11,7 @@ the residual. Joint torques follow from those forces and are compared with the e
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import dataclass, fields
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -122,10 +122,6 @@ class PhysicsReport:
     @property
     def single_support(self) -> Array:
         return self.contacts.sum(axis=1) == 1
-
-    @property
-    def in_contact(self) -> Array:
-        return self.contacts.any(axis=1)
 
     @property
     def loaded(self) -> Array:
@@ -535,11 +531,3 @@ def nearest_in_polygon(point: Array, vertices: Array, margin: float = 0.0) -> Ar
     if offsets is not None and np.all(offsets <= 0):
         return point.copy()
     return _nearest_on_boundary(point, hull)
-
-
-def physics_figures(
-    trajectory: Trajectory, robot: Robot, config: PhysicsConfig | None = None
-) -> dict[str, Any]:
-    """The summary of `check_physics` with the config it used, for a clip's metrics."""
-    report = check_physics(trajectory, robot, config)
-    return report.summary() | {"config": asdict(report.config)}

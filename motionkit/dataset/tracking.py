@@ -20,7 +20,7 @@ from motionkit.errors import DatasetError
 from motionkit.extras import require
 from motionkit.robot import Robot
 from motionkit.robot.geometry import to_rotation
-from motionkit.robot.mjcf import _standing_height
+from motionkit.robot.mjcf import standing_height
 
 
 @dataclass(frozen=True)
@@ -65,7 +65,7 @@ def track_windows(
     )
     rotations = to_rotation(trajectory.base_orientation.astype(float))
     up = rotations.apply([0.0, 0.0, 1.0])
-    floor = _standing_height(robot, robot.spec.posture_angles()) - drop  # base lower: fallen
+    floor = standing_height(robot, robot.spec.posture_angles()) - drop  # base lower: fallen
     starts = np.arange(time[0], time[-1] - window + 1e-9, stride)
     fell = []
     for start in starts:

@@ -120,14 +120,9 @@ def balance(
             break
         height = float(report.com[:, 2].mean())
         shift = com_shift(capped(error, config.error_cap), weight, targets.time, height, config)
-        shift = _bounded(total + shift, config.max_shift) - total
+        shift = capped(total + shift, config.max_shift) - total
         total += shift
         targets = shift_targets(targets, shift)
         motion = solve(targets)
     _, targets, motion = best
     return targets, *motion, passes
-
-
-def _bounded(shift: Array, limit: float) -> Array:
-    """Shifts (T, 2) scaled down to at most `limit` [m] long."""
-    return capped(shift, limit)

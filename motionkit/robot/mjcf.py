@@ -176,7 +176,7 @@ def to_mjcf(robot: Robot) -> str:
     keyframe = ET.SubElement(root, "keyframe")
     posture = spec.posture_angles()
     angles = [posture[name] for name in robot.joint_names]
-    height = _standing_height(robot, posture)
+    height = standing_height(robot, posture)
     ET.SubElement(
         keyframe,
         "key",
@@ -189,7 +189,7 @@ def to_mjcf(robot: Robot) -> str:
     return header + ET.tostring(root, encoding="unicode") + "\n"
 
 
-def _standing_height(robot: Robot, posture: dict[str, float]) -> float:
+def standing_height(robot: Robot, posture: dict[str, float]) -> float:
     """Base height that puts the lowest sole corner on the floor in the standing posture."""
     poses = robot.model.link_poses(posture)
     corners = [poses[c][2, 3] for foot in robot.spec.feet for c in foot.corners]

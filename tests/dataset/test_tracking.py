@@ -7,7 +7,7 @@ import pytest
 from motionkit.dataset import Metadata, Trajectory
 from motionkit.dataset.tracking import track_windows
 from motionkit.robot import ironcub
-from motionkit.robot.mjcf import _standing_height
+from motionkit.robot.mjcf import standing_height
 
 pytest.importorskip("mujoco")
 
@@ -17,7 +17,7 @@ def standing(lift: float, seconds: float = 2.0, rate: float = 50.0) -> Trajector
     posture = robot.spec.posture_angles()
     frames = round(seconds * rate)
     zeros = np.zeros((frames, 3))
-    height = _standing_height(robot, posture) + lift
+    height = standing_height(robot, posture) + lift
     return Trajectory(
         time=np.arange(frames) / rate,
         base_position=np.tile([0.0, 0.0, height], (frames, 1)),
