@@ -89,11 +89,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("clips", nargs="*", help="mocap files or folders (default: shared walks)")
     parser.add_argument("--passes", type=int, default=Balance().passes, help="filter passes")
+    parser.add_argument(
+        "--slowdown", type=float, default=1.0, help="the balanced clip this many times slower"
+    )
     args = parser.parse_args()
     inputs = args.clips or [str(SHARED)]
     clips = resolve_inputs(inputs)
-    filtered = RetargetConfig(balance=replace(Balance(), passes=args.passes))
-    plain = replace(filtered, balance=replace(filtered.balance, passes=0))
+    balanced = RetargetConfig(balance=replace(Balance(), passes=args.passes))
+    plain = replace(balanced, balance=replace(balanced.balance, passes=0))
+    filtered = replace(balanced, slowdown=args.slowdown)
     print(HEADER)
     print(UNITS)
     with tempfile.TemporaryDirectory() as out:

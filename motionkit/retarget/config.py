@@ -109,6 +109,9 @@ class RetargetConfig:
     # jets (motionkit/retarget/bodies.py) that do not share a joint: kept this far apart [m].
     self_collisions: bool = True
     collision_margin: float = 0.005
+    # The robot performs the clip this many times slower than the human did (targets are made
+    # in the human's time, then stretched): a slower walk asks less of ankles and knees.
+    slowdown: float = 1.0
     iterations: int = 2  # PlaCo solves per frame (warm-started from the previous frame)
     settle_iterations: int = 100  # solves on the first frame
     velocity_limits: bool = True
@@ -123,7 +126,7 @@ class RetargetConfig:
 
         if self.kind not in KINDS:
             raise RetargetError(f"kind '{self.kind}' is not one of {', '.join(KINDS)}")
-        for name in ("contact_height", "contact_speed", "ground_window", "release_time"):
+        for name in ("contact_height", "contact_speed", "ground_window", "release_time", "slowdown"):
             _check(self, name, 0.0, "> 0", strict=True)
         for name in ("min_run", "ground_range"):
             _check(self, name, 0.0, ">= 0")

@@ -18,7 +18,7 @@ from motionkit.retarget.config import RetargetConfig
 from motionkit.retarget.ik import solve_motion
 from motionkit.retarget.metrics import compute_metrics
 from motionkit.retarget.points import robot_points
-from motionkit.retarget.targets import RobotGeometry, Targets, make_targets
+from motionkit.retarget.targets import RobotGeometry, Targets, make_targets, slowed
 from motionkit.robot import Robot
 from motionkit.robot.geometry import Array, angular_velocity, from_rotation
 
@@ -57,6 +57,8 @@ def retarget(
     targets = make_targets(
         landmarks, rate, RobotGeometry(robot, points, config.points.torso_frame), config
     )
+    if config.slowdown != 1.0:
+        targets = slowed(targets, config.slowdown)
     planned = clock.perf_counter()
     motion = _Motion(robot, config, source or Source())
 
@@ -94,6 +96,7 @@ def retarget(
     # tracking figures against what the IK followed: the balanced targets
     metrics = compute_metrics(robot, goals, points, base, joints) | metrics
     metrics["scale"] = targets.scale
+    metrics["slowdown"] = config.slowdown
     metrics["physics"] = check(base, joints).summary()
     measured = clock.perf_counter()
     trajectory = motion.trajectory(targets, base, joints, metrics)

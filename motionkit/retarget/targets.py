@@ -13,7 +13,7 @@ in on the lock, and after it blends back to the free pose (`lock_offsets`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -48,6 +48,11 @@ class Targets:
     upper_arm_length: Array  # (2,) robot shoulder-elbow distance [m]
     source_slide: Array  # (n,) human foot horizontal speed in contact frames [m/s]
     human: dict[str, Array]  # (T, 3) each: the low-passed landmarks, scaled and lifted like root
+
+
+def slowed(targets: Targets, factor: float) -> Targets:
+    """The targets performed `factor` times slower (the same frames, further apart)."""
+    return replace(targets, time=targets.time * factor, source_slide=targets.source_slide / factor)
 
 
 def _unit(vectors: Array) -> Array:

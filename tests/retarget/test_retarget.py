@@ -1,6 +1,7 @@
 """The retargeter on a synthetic walker: clean contacts, limits, tracking; a valid clip that
 holds the scaled human it was retargeted to."""
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -178,3 +179,17 @@ def test_recipes_parse() -> None:
     for recipe in recipes:
         config = RetargetConfig.from_toml(recipe)
         assert config.clips and config.kind == "walk"
+
+
+def test_slowdown_stretches_time_and_keeps_the_poses() -> None:
+    landmarks, rate = walker(1.0)
+    config = RetargetConfig(balance=replace(RetargetConfig().balance, passes=0))
+    normal, _ = retarget(landmarks, rate, ironcub(), config)
+    slow, _ = retarget(landmarks, rate, ironcub(), replace(config, slowdown=2.0))
+    assert slow.time[-1] == pytest.approx(2 * normal.time[-1])
+    assert slow.metadata.metrics["slowdown"] == 2.0
+    assert np.abs(slow.joint_positions - normal.joint_positions).mean() < 0.01  # rad
+    fast = np.abs(normal.joint_velocities).mean()
+    assert np.abs(slow.joint_velocities).mean() == pytest.approx(fast / 2, rel=0.05)
+    with pytest.raises(RetargetError, match="slowdown"):
+        RetargetConfig(slowdown=0.0)
