@@ -126,7 +126,13 @@ class RetargetConfig:
 
         if self.kind not in KINDS:
             raise RetargetError(f"kind '{self.kind}' is not one of {', '.join(KINDS)}")
-        for name in ("contact_height", "contact_speed", "ground_window", "release_time", "slowdown"):
+        for name in (
+            "contact_height",
+            "contact_speed",
+            "ground_window",
+            "release_time",
+            "slowdown",
+        ):
             _check(self, name, 0.0, "> 0", strict=True)
         for name in ("min_run", "ground_range"):
             _check(self, name, 0.0, ">= 0")
