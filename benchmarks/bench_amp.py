@@ -30,6 +30,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from motionkit import recipes
+
 if TYPE_CHECKING:
     from motionkit.robot import Robot
     from motionkit.train.config import TrainConfig
@@ -154,7 +156,7 @@ def main() -> None:
     robot = ironcub()
     with tempfile.TemporaryDirectory() as scratch:
         walk = walk_prior(args.walk, Path(scratch))
-        recipe = TrainConfig.from_toml(ROOT / "train" / "walk_gpu.toml")
+        recipe = TrainConfig.from_toml(recipes.find("train", "walk_gpu"))
         recipe = replace(
             recipe,
             priors={"walk": PriorConfig((str(walk),))},

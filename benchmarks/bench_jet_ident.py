@@ -20,13 +20,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from motionkit import recipes
 from motionkit.jet_ident.config import JetIdentConfig
 from motionkit.jet_ident.evaluate import evaluate, noise_floor, report_table
 from motionkit.jet_ident.fit import LSTM, identify, lstm_wins
 from motionkit.jet_ident.step import LSTMThrust, initial_state, thrust_next
 from motionkit.jet_ident.synthetic import synthetic_run
 
-RECIPE = Path(__file__).resolve().parents[1] / "jet_ident" / "p250.toml"
+RECIPE = recipes.find("jet_ident", "p250")
 PAPER_MAE, PAPER_RMSE = 4.995, 8.061  # N, free-run against the load cell (the paper's LSTM)
 
 

@@ -23,12 +23,13 @@ from pathlib import Path
 import jax
 import jax.numpy as jnp
 
+from motionkit import recipes
 from motionkit.robot import ironcub
 from motionkit.train.config import TrainConfig
 from motionkit.train.run import make_env
 from motionkit.train.train import Trainer
 
-RECIPE = Path(__file__).resolve().parents[1] / "train" / "paper_gpu.toml"
+RECIPE = recipes.find("train", "paper_gpu")
 TARGET_STEPS, TARGET_MINUTES = 200_000, 30.0
 
 

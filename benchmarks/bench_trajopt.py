@@ -39,8 +39,8 @@ import os
 import statistics
 import time
 from dataclasses import replace
-from pathlib import Path
 
+from motionkit import recipes
 from motionkit.errors import TrajoptError
 from motionkit.robot.model import ironcub
 from motionkit.trajopt.checks import check_solution
@@ -48,7 +48,7 @@ from motionkit.trajopt.config import TrajoptConfig
 from motionkit.trajopt.kinematics import RobotKinematics
 from motionkit.trajopt.solve import Prepared
 
-RECIPE = Path(__file__).resolve().parents[1] / "trajopt" / "walk_to_fly.toml"
+RECIPE = recipes.find("trajopt", "walk_to_fly")
 
 
 def run(label: str, config: TrajoptConfig, kinematics: RobotKinematics) -> float | None:

@@ -1,9 +1,9 @@
 """One training recipe within a wall-clock budget, for a rented GPU: train, keep the checkpoint,
 and write every figure measured to OUT/gpu_run.json (strict JSON) and OUT/gpu_run.txt.
 
-    benchmarks/gpu_runs.sh train/walk_fly_gpu.toml 8 --priors-dir /data/priors
-    python benchmarks/gpu_run.py train/walk_gpu.toml 8 --out runs/gpu/walk
-    python benchmarks/gpu_run.py train/walk_gpu.toml 8 --out runs/gpu/walk \\
+    benchmarks/gpu_runs.sh walk_fly_gpu 8 --priors-dir /data/priors
+    python benchmarks/gpu_run.py walk_gpu 8 --out runs/gpu/walk
+    python benchmarks/gpu_run.py walk_gpu 8 --out runs/gpu/walk \\
         --resume runs/gpu/walk/checkpoint.msgpack
 
 The budget covers the whole call (imports, compilation, training, the final evaluation and the
@@ -30,6 +30,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from motionkit import recipes
 from motionkit.errors import MotionkitError, TrainError
 from motionkit.outputs import strict_json, write_text_atomic
 
@@ -67,8 +68,8 @@ file is copied to OUT/checkpoint.msgpack (unless it is that file) and training c
 [run] iterations. The small overrides (--num-envs ...) are for smoke runs on a CPU.
 Errors in the inputs print one line `error: ...` and exit with status 2.
 
-  benchmarks/gpu_runs.sh train/walk_gpu.toml 8 --priors-dir /data/priors
-  benchmarks/gpu_runs.sh train/walk_fly_gpu.toml 3 --priors-dir /tmp/p --num-envs 8 \\
+  benchmarks/gpu_runs.sh walk_gpu 8 --priors-dir /data/priors
+  benchmarks/gpu_runs.sh walk_fly_gpu 3 --priors-dir /tmp/p --num-envs 8 \\
       --minibatch-size 64 --iterations 2 --eval-rollouts 2 --eval-every 0"""
 
 
@@ -81,7 +82,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("recipe", type=Path, help="TOML recipe, e.g. train/walk_fly_gpu.toml")
+    parser.add_argument(
+        "recipe", help="a training recipe: a TOML file or a built-in name (walk_fly_gpu)"
+    )
     parser.add_argument(
         "minutes",
         type=_positive_float,
@@ -132,15 +135,6 @@ def train_minutes(budget: float, spent: float, recipe_limit: float = 0.0) -> flo
     if recipe_limit > 0:
         minutes = min(minutes, recipe_limit)
     return round(minutes, 3)
-
-
-def resolve_recipe(path: Path) -> Path:
-    """The recipe as given, or relative to the repository when not found from here."""
-    if path.is_file():
-        return path
-    if not path.is_absolute() and (ROOT / path).is_file():
-        return ROOT / path
-    raise TrainError(f"{path}: no such recipe")
 
 
 def with_priors_dir(config: Any, folder: Path) -> Any:
@@ -362,7 +356,7 @@ def write_reports(report: dict[str, Any], out: Path) -> str:
 def run(args: argparse.Namespace, clock: float, started: str) -> int:
     from motionkit.train.config import TrainConfig
 
-    recipe = resolve_recipe(args.recipe)
+    recipe = recipes.find("train", args.recipe)
     config = TrainConfig.from_toml(recipe)
     if args.priors_dir is not None:
         config = with_priors_dir(config, args.priors_dir)

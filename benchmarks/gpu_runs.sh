@@ -3,7 +3,7 @@
 # measured in one JSON file; see `benchmarks/gpu_runs.sh --help`.
 #
 #   benchmarks/gpu_runs.sh RECIPE [MINUTES] [--resume CHECKPOINT] [--priors-dir DIR] [--out DIR]
-#   benchmarks/gpu_runs.sh train/walk_fly_gpu.toml 8 --priors-dir /data/priors
+#   benchmarks/gpu_runs.sh walk_fly_gpu 8 --priors-dir /data/priors
 #
 # The work is done by benchmarks/gpu_run.py; this wrapper only picks the Python to run it with
 # (the repository's .venv when there is one, else python3). Paths are relative to the working

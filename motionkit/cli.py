@@ -13,6 +13,7 @@ from pathlib import Path
 from motionkit import __version__
 from motionkit.errors import MotionkitError
 from motionkit.outputs import write_text_atomic
+from motionkit.recipes import STAGES as STAGE_CHOICES
 
 ROBOT_EPILOG = """\
 Without --urdf the robot is iRonCub, built from the installed icub-models package. A user robot
@@ -68,6 +69,24 @@ def _robot_export(args: argparse.Namespace) -> None:
     print(f"wrote {path} ({args.format}, model {robot.model_hash})")
 
 
+def _recipes(args: argparse.Namespace) -> None:
+    from motionkit import recipes
+
+    stages = [args.stage] if args.stage else list(recipes.STAGES)
+    if args.show:
+        found = [r for s in stages for r in recipes.builtin(s) if r.name == args.show]
+        if len(found) != 1:
+            where = "several stages (name one)" if found else "no built-in recipe"
+            raise recipes.RecipeError(f"{args.show}: {where}; see `motionkit recipes`")
+        print(found[0].path.read_text(), end="")
+        return
+    for stage in stages:
+        print(f"{stage}:")
+        for recipe in recipes.builtin(stage):
+            print(f"  {recipe.name:<20} {recipe.summary}")
+    print(f"\n(in {recipes.ROOT}; pass a name to --config, or copy one with --show NAME > my.toml)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="motionkit",
@@ -103,6 +122,16 @@ def build_parser() -> argparse.ArgumentParser:
     export.add_argument("--format", choices=("urdf", "mjcf"), required=True)
     export.add_argument("--out", type=Path, required=True, help="output folder")
     export.set_defaults(handler=_robot_export)
+
+    listing = stages.add_parser(
+        "recipes",
+        help="list the built-in recipes (found by name with --config)",
+        description="The recipes shipped with motionkit, by stage, with their first comment "
+        "line. Every command's --config takes one by name, or a TOML file of your own.",
+    )
+    listing.add_argument("stage", nargs="?", choices=STAGE_CHOICES, help="one stage only")
+    listing.add_argument("--show", metavar="NAME", help="print the recipe's TOML")
+    listing.set_defaults(handler=_recipes)
 
     from motionkit.dataset.command import add_commands as add_dataset_commands
 

@@ -13,6 +13,7 @@ from motionkit.extras import require
 from motionkit.jet_ident.benchlog import COLUMNS, read_log
 from motionkit.jet_ident.config import JetIdentConfig
 from motionkit.outputs import write_text_atomic
+from motionkit.recipes import argument
 
 # The handlers import the JAX modules when they run: `motionkit` works without the extra.
 
@@ -25,7 +26,7 @@ feeds on its own thrust after a short warm-up on the measured one (see --help of
 
 Typical run (the recipe jet_ident/p250.toml):
   motionkit jet-ident simulate --seed 1 --out logs/p250_1.csv   (and seeds 2-5, 101)
-  motionkit jet-ident fit logs/p250_[1-5].csv --out fits/p250 --config jet_ident/p250.toml
+  motionkit jet-ident fit logs/p250_[1-5].csv --out fits/p250 --config p250
   motionkit jet-ident eval fits/p250/model.npz logs/p250_101.csv"""
 
 
@@ -53,7 +54,11 @@ def add_commands(stages: argparse._SubParsersAction) -> None:
     simulate.add_argument("--out", type=Path, required=True, help="CSV file to write")
     simulate.add_argument("--seed", type=int, help="profile and noise seed (default: [bench] seed)")
     simulate.add_argument("--duration", type=float, help="seconds (default: [bench] duration_s)")
-    simulate.add_argument("--config", type=Path, help="TOML recipe (default: built-in defaults)")
+    simulate.add_argument(
+        "--config",
+        type=argument("jet_ident"),
+        help="recipe: a TOML file or a built-in name (default: defaults)",
+    )
     simulate.set_defaults(handler=_simulate)
 
     fit = commands.add_parser(
@@ -70,7 +75,11 @@ def add_commands(stages: argparse._SubParsersAction) -> None:
     )
     fit.add_argument("logs", nargs="+", type=Path, metavar="CSV", help="bench logs")
     fit.add_argument("--out", type=Path, required=True, help="output folder")
-    fit.add_argument("--config", type=Path, help="TOML recipe, e.g. jet_ident/p250.toml")
+    fit.add_argument(
+        "--config",
+        type=argument("jet_ident"),
+        help="recipe: a TOML file or a built-in name, e.g. p250",
+    )
     fit.set_defaults(handler=_fit)
 
     score = commands.add_parser(

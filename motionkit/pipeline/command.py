@@ -14,14 +14,16 @@ from motionkit.outputs import write_text_atomic
 from motionkit.pipeline.cache import Outcome
 from motionkit.pipeline.config import PipelineConfig
 from motionkit.pipeline.stages import STAGES, Context
+from motionkit.recipes import argument
 
-DEFAULT_CONFIG = Path("pipeline/tiny_cpu.toml")
+DEFAULT_CONFIG = "tiny_cpu"
 STAGE_NAMES = tuple(name for name, _ in STAGES)
 
 EPILOG = """\
 Stages, in order, each into its folder of OUT:
-  retarget   walk/      CMU clips (the retarget recipe's ids, fetched into the cache, or every
-                        .bvh/.amc under --mocap-dir) onto the robot
+  retarget   walk/      mocap clips onto the robot: the recipe's (the built-in sample of three
+                        CMU walks), every .bvh/.amc under --mocap-dir, or with --fetch the
+                        CMU clips of the fetch recipe, downloaded into the cache
   trajopt    flight/    one flight per trajopt recipe and every clip of the flight library
                         (take-offs, flights, landings, jumps, walk-to-fly), each checked
                         and replayed in MuJoCo
@@ -34,6 +36,7 @@ stages before it, motionkit's code for it or its main libraries (the hash is its
 OUT/.pipeline/). A failing stage removes what it wrote, and the pipeline stops with status 2.
 OUT/pipeline_summary.json holds the table printed at the end.
 
+  motionkit pipeline                                   (the built-in sample, offline)
   motionkit pipeline --mocap-dir ~/mocap/cmu --out runs/pipeline
   motionkit view runs/pipeline/walk"""
 
@@ -50,14 +53,17 @@ def add_commands(stages: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--config",
-        type=Path,
+        type=argument("pipeline"),
         default=DEFAULT_CONFIG,
-        help=f"pipeline recipe (default: {DEFAULT_CONFIG}, from the repository root)",
+        help=f"pipeline recipe: a TOML file or a built-in name (default: {DEFAULT_CONFIG})",
     )
     parser.add_argument("--out", type=Path, default=Path("runs/pipeline"),
                         help="output folder (default: runs/pipeline)")  # fmt: skip
-    parser.add_argument("--mocap-dir", type=Path, help="retarget every .bvh/.amc in this folder "
-                        "instead of downloading the recipe's CMU clips")  # fmt: skip
+    clips = parser.add_mutually_exclusive_group()
+    clips.add_argument("--mocap-dir", type=Path, help="retarget every .bvh/.amc in this folder "
+                       "instead of the recipe's clips")  # fmt: skip
+    clips.add_argument("--fetch", action="store_true", help="retarget the CMU clips of the "
+                       "fetch recipe (cmu_walk: 15 walks), downloading them once")  # fmt: skip
     parser.add_argument(
         "--full", action="store_true", help="train with the paper's GPU recipe, not the tiny one"
     )
@@ -76,16 +82,11 @@ def _require_extras() -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    if not args.config.is_file():
-        raise PipelineError(
-            f"{args.config}: no such pipeline recipe (run from the repository root, or pass "
-            "--config; pipeline/tiny_cpu.toml is the example)"
-        )
     config = PipelineConfig.from_toml(args.config)
     _require_extras()
     if args.full:
         _warn_without_gpu()
-    ctx = Context(config, args.out.resolve(), args.mocap_dir, args.full, args.force)
+    ctx = Context(config, args.out.resolve(), args.mocap_dir, args.full, args.force, args.fetch)
     start = time.perf_counter()
     outcomes = []
     last = STAGE_NAMES.index(args.until or STAGE_NAMES[-1])

@@ -1,5 +1,5 @@
-"""The pipeline recipe: which stage recipes to run, paths relative to the recipe file (every
-path is required: pipeline/tiny_cpu.toml is the example)."""
+"""The pipeline recipe: which stage recipes to run, each a path relative to the recipe file or a
+built-in recipe's name (every one is required: the built-in tiny_cpu is the example)."""
 
 from __future__ import annotations
 
@@ -7,13 +7,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import ClassVar
 
+from motionkit import recipes
 from motionkit.errors import PipelineError
 from motionkit.tomlfile import build_tables, read_toml
 
 
 @dataclass(frozen=True)
 class RetargetStage:
-    recipe: str = ""  # settings and CMU clip ids (unless --mocap-dir)
+    recipe: str = ""  # settings and clips (unless --mocap-dir)
+    fetch_recipe: str = ""  # with --fetch: a recipe whose CMU clip ids are downloaded
     jobs: int = 0  # processes, 0 = one per CPU
 
 
@@ -59,9 +61,10 @@ class PipelineConfig:
         config.check()
         return config
 
-    def resolve(self, relative: str) -> Path:
-        """A path of the recipe, relative to the recipe file."""
-        return (self.source.parent / relative).resolve()
+    def resolve(self, stage: str, text: str) -> Path:
+        """A stage recipe the pipeline recipe names: a file relative to it, or a built-in."""
+        path = self.source.parent / text
+        return path.resolve() if path.is_file() else recipes.find(stage, text).resolve()
 
     def check(self) -> None:
         """Every recipe file named exists; the choices are valid."""
@@ -72,15 +75,15 @@ class PipelineConfig:
             "[train] recipe": [self.train.recipe],
             "[train] full_recipe": [self.train.full_recipe],
         }
-        for key, paths in named.items():
-            if not any(paths):
-                raise PipelineError(f"{self.source}: {key} is missing (a path to a recipe)")
-            for relative in filter(None, paths):
-                if not self.resolve(relative).is_file():
-                    raise PipelineError(
-                        f"{self.source}: {key}: {relative} does not exist "
-                        f"(looked for {self.resolve(relative)})"
-                    )
+        for key, texts in named.items():
+            if not any(texts):
+                raise PipelineError(f"{self.source}: {key} is missing (a recipe path or name)")
+            stage = key[1 : key.index("]")]
+            for text in filter(None, [*texts, self.retarget.fetch_recipe * (stage == "retarget")]):
+                try:
+                    self.resolve(stage, text)
+                except recipes.RecipeError as exc:
+                    raise PipelineError(f"{self.source}: {key}: {exc}") from None
         if self.train.jet not in ("lstm", "ideal"):
             raise PipelineError(f"{self.source}: [train] jet should be 'lstm' or 'ideal'")
         for table in ("retarget", "trajopt"):

@@ -31,6 +31,7 @@ class Context:
     mocap_dir: Path | None = None
     full: bool = False
     force: bool = False
+    fetch: bool = False  # retarget the fetch recipe's CMU clips (downloaded) instead
     keys: dict[str, str] = field(default_factory=dict)  # stage -> key, as the stages run
 
     @property
@@ -46,12 +47,20 @@ class Context:
         return run_cached(stage, key, self.folder(folder), self.records, work, self.force)
 
 
+def _retarget_recipe(ctx: Context) -> str:
+    if not ctx.fetch:
+        return ctx.config.retarget.recipe
+    if not ctx.config.retarget.fetch_recipe:
+        raise PipelineError(f"{ctx.config.source}: --fetch needs [retarget] fetch_recipe")
+    return ctx.config.retarget.fetch_recipe
+
+
 def retarget(ctx: Context) -> Outcome:
     from motionkit.retarget.batch import resolve_inputs
     from motionkit.retarget.command import run_retarget
     from motionkit.retarget.config import RetargetConfig
 
-    recipe = ctx.config.resolve(ctx.config.retarget.recipe)
+    recipe = ctx.config.resolve("retarget", _retarget_recipe(ctx))
     config = RetargetConfig.from_toml(recipe)
     if ctx.mocap_dir is not None:
         if not ctx.mocap_dir.is_dir():
@@ -96,10 +105,10 @@ def trajopt(ctx: Context) -> Outcome:
 
     stage = ctx.config.trajopt
     configs = {}
-    for recipe in (ctx.config.resolve(r) for r in stage.recipes):
+    for recipe in (ctx.config.resolve("trajopt", r) for r in stage.recipes):
         config = TrajoptConfig.from_toml(recipe)
         configs[recipe.stem] = replace(config, solver=replace(config.solver, print_level=0))
-    library = ctx.config.resolve(stage.library) if stage.library else None
+    library = ctx.config.resolve("trajopt", stage.library) if stage.library else None
     solves = read_library(library) if library else []
     parts = (
         {name: c.to_dict() for name, c in configs.items()},
@@ -137,7 +146,7 @@ def trajopt(ctx: Context) -> Outcome:
 def jet_ident(ctx: Context) -> Outcome:
     from motionkit.jet_ident.config import JetIdentConfig
 
-    config = JetIdentConfig.from_toml(ctx.config.resolve(ctx.config.jet_ident.recipe))
+    config = JetIdentConfig.from_toml(ctx.config.resolve("jet_ident", ctx.config.jet_ident.recipe))
     parts = (config.to_dict(), source_digest(["jet_ident"]), versions(*JAX))
 
     def work(folder: Path) -> str:
@@ -232,7 +241,7 @@ def train(ctx: Context) -> Outcome:
 
     stage = ctx.config.train
     config = TrainConfig.from_toml(
-        ctx.config.resolve(stage.full_recipe if ctx.full else stage.recipe)
+        ctx.config.resolve("train", stage.full_recipe if ctx.full else stage.recipe)
     )
     priors = {  # the recipe's weights, this run's clips
         name: PriorConfig(

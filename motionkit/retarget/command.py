@@ -12,6 +12,7 @@ from typing import Any
 
 from motionkit.errors import RetargetError
 from motionkit.outputs import write_text_atomic
+from motionkit.recipes import argument
 from motionkit.retarget.batch import (
     QUALITY,
     ClipInput,
@@ -24,8 +25,9 @@ from motionkit.retarget.config import RetargetConfig
 RETARGET_EPILOG = """\
 INPUT is a .bvh file, an .amc file (its skeleton: <subject>.asf beside it, or the only .asf in
 its folder), a folder (searched recursively), or a CMU clip id such as 02_01 (downloaded into the
-cache first, see `motionkit mocap fetch`). A recipe (--config, e.g. retarget/cmu_walk.toml) can
-list clips too; its settings are RetargetConfig's fields (motionkit/retarget/config.py).
+cache first, see `motionkit mocap fetch`). A recipe (--config: a file or a built-in
+name such as cmu_walk) can list clips too; its settings are RetargetConfig's fields
+(motionkit/retarget/config.py).
 
 Each clip becomes DIR/<name>.mcap with the resolved config and its quality metrics in the
 metadata; DIR/retarget_summary.json holds every clip's metrics and stage times. A clip that
@@ -50,7 +52,11 @@ def add_commands(stages: argparse._SubParsersAction, robot_source: Any) -> None:
     )
     retarget.add_argument("inputs", nargs="*", metavar="INPUT", help="files, folders, clip ids")
     retarget.add_argument("--out", type=Path, required=True, help="output folder")
-    retarget.add_argument("--config", type=Path, help="recipe TOML (default settings without)")
+    retarget.add_argument(
+        "--config",
+        type=argument("retarget"),
+        help="recipe: a TOML file or a built-in name (default: the defaults)",
+    )
     retarget.add_argument(
         "--jobs", type=int, default=1, help="parallel processes (default 1; 0 = one per CPU)"
     )

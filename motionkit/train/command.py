@@ -9,6 +9,7 @@ from pathlib import Path
 
 from motionkit.errors import TrainError
 from motionkit.extras import require
+from motionkit.recipes import argument
 
 PRIOR_CHOICES = "walk,flight|walk|flight|none"
 
@@ -18,8 +19,8 @@ The config is a TOML recipe with tables [env], [reward], [ppo], [amp], [run] and
   [priors.walk]
   paths = ["datasets/walk"]        # MCAP clips or folders (relative to the working directory)
   weight = 1.0
-Recipes: train/paper_gpu.toml (the paper's settings, 4,096 environments on one GPU) and
-train/tiny_cpu.toml (seconds per iteration on a CPU). A key left out keeps its default.
+Recipes: paper_gpu (the paper's settings, 4,096 environments on one GPU) and
+tiny_cpu (seconds per iteration on a CPU). A key left out keeps its default.
 
 Outputs in --out: config.toml (resolved), train.csv and eval.csv (metrics per iteration and
 per evaluation), tensorboard/ (with tensorboardX installed), checkpoint.msgpack (the latest
@@ -29,9 +30,9 @@ its waypoints in the metadata, for `motionkit view`), summary.json.
 Evaluation figures: waypoints reached per episode, share of time airborne and on the ground,
 thrust usage (mean T / T_max), falls per episode, episode duration.
 
-  motionkit train --config train/tiny_cpu.toml --out runs/tiny --priors none
-  motionkit train --config train/paper_gpu.toml --out runs/paper
-  motionkit train ablation --config train/paper_gpu.toml --out runs/ablation"""
+  motionkit train --config tiny_cpu --out runs/tiny --priors none
+  motionkit train --config paper_gpu --out runs/paper
+  motionkit train ablation --config paper_gpu --out runs/ablation"""
 
 
 def add_commands(stages: argparse._SubParsersAction) -> None:
@@ -64,7 +65,12 @@ def add_commands(stages: argparse._SubParsersAction) -> None:
 
 def _common(parser: argparse.ArgumentParser, priors: bool = True, required: bool = True) -> None:
     # `train` checks --config and --out itself, so that `train ablation --config ...` parses
-    parser.add_argument("--config", type=Path, required=required, help="TOML recipe (required)")
+    parser.add_argument(
+        "--config",
+        type=argument("train"),
+        required=required,
+        help="recipe: a TOML file or a built-in name (required)",
+    )
     parser.add_argument("--out", type=Path, required=required, help="output folder (required)")
     if priors:
         parser.add_argument(

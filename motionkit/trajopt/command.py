@@ -17,15 +17,17 @@ from typing import Any
 
 from motionkit.errors import MotionkitError, TrajoptError
 from motionkit.extras import require
+from motionkit.recipes import argument
 from motionkit.trajopt.config import SCENARIOS, TrajoptConfig
 
 EPILOG = """\
-Recipes for every scenario are in trajopt/*.toml. Targets are world positions [m] of the centre
-of mass; the robot starts at the origin facing -x (iRonCub's root link x axis points backwards).
-Each solution is checked (residuals, complementarity, target within 1 cm, thrust limits, MuJoCo
-replay open loop and stabilised by base feedback through the jets, which must track the plan
+Built-in recipes for every scenario: `motionkit recipes trajopt`. Targets are world positions [m] of
+the centre of mass; the robot starts at the origin facing -x (iRonCub's root link x axis points
+backwards). Each solution is checked (residuals, complementarity, target within 1 cm, thrust limits,
+MuJoCo replay open loop and stabilised by base feedback through the jets, which must track the plan
 within [replay] max_base_error); a request that cannot be solved exits with status 1 and writes
-nothing. --library FILE solves every clip a flight library names (trajopt/library.toml)."""
+nothing. --library FILE solves every clip a flight library names (the built-in one: --library
+library)."""
 
 
 def add_commands(stages: argparse._SubParsersAction) -> None:
@@ -38,9 +40,14 @@ def add_commands(stages: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--scenario", choices=SCENARIOS, help="required unless --library")
-    parser.add_argument("--library", type=Path,
-                        help="a TOML naming many solves (trajopt/library.toml)")  # fmt: skip
-    parser.add_argument("--config", type=Path, help="a recipe TOML (default: built-in defaults)")
+    parser.add_argument(
+        "--library", type=argument("trajopt"), help="a TOML naming many solves (built-in: library)"
+    )
+    parser.add_argument(
+        "--config",
+        type=argument("trajopt"),
+        help="recipe: a TOML file or a built-in name (default: defaults)",
+    )
     parser.add_argument("--out", type=Path, required=True, help="output folder")
     parser.add_argument("--name", help="file name stem (default: the scenario and target)")
     parser.add_argument("--target", type=float, nargs=3, metavar=("X", "Y", "Z"))

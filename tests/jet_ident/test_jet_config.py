@@ -4,10 +4,11 @@ from pathlib import Path
 
 import pytest
 
+from motionkit import recipes
 from motionkit.errors import JetIdentError
 from motionkit.jet_ident.config import JetIdentConfig, TrainConfig
 
-RECIPE = Path(__file__).resolve().parents[2] / "jet_ident" / "p250.toml"
+RECIPE = recipes.find("jet_ident", "p250")
 
 
 def test_recipe_loads() -> None:

@@ -6,6 +6,7 @@ from pathlib import Path
 import pytest
 from mocap_synth import arms_down, mini_bvh
 
+from motionkit import recipes
 from motionkit.cli import main
 from motionkit.errors import PipelineError
 from motionkit.pipeline.cache import digest, run_cached
@@ -53,9 +54,13 @@ def test_digest_depends_on_every_part() -> None:
 
 
 def test_the_shipped_recipe_names_existing_files() -> None:
-    config = PipelineConfig.from_toml(REPO / "pipeline" / "tiny_cpu.toml")
+    config = PipelineConfig.from_toml(recipes.find("pipeline", "tiny_cpu"))
     assert len(config.trajopt.recipes) == 1 and config.train.jet == "lstm"
-    assert config.resolve(config.trajopt.library) == REPO / "trajopt" / "library.toml"
+    assert (
+        config.resolve("trajopt", config.trajopt.library)
+        == recipes.ROOT / "trajopt" / "library.toml"
+    )
+    assert config.resolve("retarget", config.retarget.recipe).parent == recipes.ROOT / "retarget"
 
 
 def test_recipe_errors_name_the_key(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -63,17 +68,23 @@ def test_recipe_errors_name_the_key(tmp_path: Path, capsys: pytest.CaptureFixtur
     text = recipe.read_text()
     recipe.write_text(text.replace('"takeoff.toml"', '"takeoff.toml", "missing.toml"'))
     with pytest.raises(
-        PipelineError, match=r"\[trajopt\] recipes or library: missing.toml does not exist"
+        PipelineError,
+        match=r"\[trajopt\] recipes or library: missing.toml: no such file, nor a built-in",
     ):
         PipelineConfig.from_toml(recipe)
+    recipe.write_text(text.replace('"takeoff.toml"', '"landing"'))  # a built-in, by name
+    named = PipelineConfig.from_toml(recipe)
+    assert named.resolve("trajopt", "landing") == recipes.ROOT / "trajopt" / "landing.toml"
     recipe.write_text(text.replace('recipe = "jet.toml"', ""))
     with pytest.raises(PipelineError, match=r"\[jet_ident\] recipe is missing"):
         PipelineConfig.from_toml(recipe)
     recipe.write_text("[trajectory]\n")
     assert main(["pipeline", "--config", str(recipe), "--out", str(tmp_path / "o")]) == 2
     assert "unknown tables ['trajectory']" in capsys.readouterr().err
-    assert main(["pipeline", "--config", str(tmp_path / "none.toml")]) == 2
-    assert "no such pipeline recipe" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit:
+        main(["pipeline", "--config", str(tmp_path / "none.toml")])
+    assert exit.value.code == 2
+    assert "none.toml: no such file, nor a built-in pipeline recipe" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
 
 
@@ -116,7 +127,7 @@ def tiny_recipes(folder: Path, hidden: int = 8) -> Path:
     """A pipeline recipe with the smallest stage recipes that still run every stage."""
     (folder / "retarget.toml").write_text('kind = "walk"\n')
     # the recipe's 20 knots: coarser plans resampled at 50 Hz fail the datasets stage's checks
-    (folder / "takeoff.toml").write_text((REPO / "trajopt" / "takeoff.toml").read_text())
+    (folder / "takeoff.toml").write_text(recipes.find("trajopt", "takeoff").read_text())
     (folder / "jet.toml").write_text(TINY_JET.format(hidden=hidden))
     (folder / "train.toml").write_text(TINY_TRAIN)
     recipe = folder / "pipeline.toml"

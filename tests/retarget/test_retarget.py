@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from walker import HIP_Y, SHANK, THIGH, walker
 
+from motionkit import recipes
 from motionkit.dataset import read, write
 from motionkit.dataset.validate import validate_clip
 from motionkit.errors import RetargetError
@@ -173,10 +174,9 @@ def test_sole_target_defined_when_the_foot_points_down() -> None:
 
 
 def test_recipes_parse() -> None:
-    folder = Path(__file__).resolve().parents[2] / "retarget"
-    recipes = sorted(folder.glob("*.toml"))
-    assert recipes, folder
-    for recipe in recipes:
+    found = recipes.builtin("retarget")
+    assert {r.name for r in found} >= {"cmu_walk", "sample_walks"}
+    for recipe in (r.path for r in found):
         config = RetargetConfig.from_toml(recipe)
         assert config.clips and config.kind == "walk"
 

@@ -7,10 +7,12 @@ from pathlib import Path
 
 import pytest
 
+from motionkit import recipes
+
 jax = pytest.importorskip("jax")
 pytest.importorskip("mujoco.mjx")
 
-RECIPES = Path(__file__).resolve().parents[2] / "train"
+RECIPES = recipes.ROOT / "train"
 
 
 @pytest.fixture(scope="session", autouse=True)

@@ -5,11 +5,12 @@ from pathlib import Path
 
 import pytest
 
+from motionkit import recipes
 from motionkit.errors import TrainError
 from motionkit.train.command import parse_priors
 from motionkit.train.config import TrainConfig
 
-RECIPES = Path(__file__).resolve().parents[2] / "train"
+RECIPES = recipes.ROOT / "train"
 
 
 def test_paper_recipe_has_the_paper_settings() -> None:

@@ -15,7 +15,7 @@ pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "benchmarks" / "gpu_runs.sh"
-RECIPE = "train/walk_fly_gpu.toml"
+RECIPE = "walk_fly_gpu"
 TINY = ("--num-envs", "8", "--minibatch-size", "64", "--eval-rollouts", "2", "--eval-every", "0")
 STEPS = 8 * 16  # num_envs x rollout_steps (the recipe's default 16)
 

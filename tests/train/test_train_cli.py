@@ -4,6 +4,7 @@ from pathlib import Path
 
 import pytest
 
+from motionkit import recipes
 from motionkit.cli import main
 
 
@@ -16,7 +17,7 @@ def test_help_explains_the_config_and_outputs(capsys: pytest.CaptureFixture[str]
 
 
 def test_refusals(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    recipe = Path(__file__).resolve().parents[2] / "train" / "tiny_cpu.toml"
+    recipe = recipes.find("train", "tiny_cpu")
     assert main(["train", "--out", str(tmp_path)]) == 2
     assert "needs --config" in capsys.readouterr().err
     assert main(["train", "--config", str(recipe), "--out", str(tmp_path), "--priors", "walk"]) == 2

@@ -11,11 +11,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from motionkit import recipes
 from motionkit.errors import TrajoptError
 from motionkit.trajopt.command import add_commands
 from motionkit.trajopt.library import clip_name, read_library
 
-RECIPES = Path(__file__).resolve().parents[2] / "trajopt"
+RECIPES = recipes.ROOT / "trajopt"
 LIBRARY = RECIPES / "library.toml"
 
 

@@ -10,6 +10,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from motionkit import recipes
 from motionkit.errors import TrajoptError
 from motionkit.robot.model import ironcub
 from motionkit.trajopt.checks import motion_figures
@@ -18,7 +19,7 @@ from motionkit.trajopt.config import Replay, TrajoptConfig
 from motionkit.trajopt.replay import Simulation, allocate, reference, replay, stabilised_replay
 from motionkit.trajopt.solve import Solution, solve
 
-RECIPES = Path(__file__).resolve().parents[2] / "trajopt"
+RECIPES = recipes.ROOT / "trajopt"
 
 # Four jets pushing straight up from the corners of a 0.2 m x 0.4 m rectangle around the origin.
 UP = np.tile([[0.0], [0.0], [1.0]], 4)

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from motionkit import recipes
 from motionkit.dataset import Trajectory, corner_names, read
 from motionkit.dataset.validate import validate_clip
 from motionkit.robot import THRUST_AXIS
@@ -24,7 +25,7 @@ from motionkit.trajopt.kinematics import GRAVITY
 from motionkit.trajopt.replay import replay
 from motionkit.trajopt.solve import solve
 
-RECIPES = Path(__file__).resolve().parents[2] / "trajopt"
+RECIPES = recipes.ROOT / "trajopt"
 pytestmark = pytest.mark.slow
 
 
