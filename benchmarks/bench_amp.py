@@ -12,7 +12,7 @@ regularisation 1e-4, no weight decay, gradient penalty 2.5, learning rate 1e-4, 
 of about 10 iterations, 20 s episodes, waypoints without deadline, v_d 0.8 m/s); two things of
 the earlier trainer have no key and are today's in both runs: the feature normaliser sees equal
 numbers of prior and policy rows, and half of the discriminator's policy samples come from the
-rollout. Without --walk the CMU walks of ../shared/mocap/cmu are retargeted into a temporary
+rollout. Without --walk the CMU clips of the offline sample are retargeted into a temporary
 folder first.
 """
 
@@ -37,7 +37,7 @@ if TYPE_CHECKING:
     from motionkit.train.config import TrainConfig
 
 ROOT = Path(__file__).resolve().parents[1]
-SHARED_MOCAP = ROOT.parent / "shared" / "mocap" / "cmu"
+SHARED_MOCAP = recipes.sample_mocap()
 WINDOWS = ((1, 10), (11, 20), (21, 30))
 FIGURES = {
     "falls per episode": "falls_per_episode",

@@ -2,8 +2,8 @@
 
     python benchmarks/bench_priors.py [CLIP ...] [--passes N]
 
-Clips default to the CMU walks in ../shared/mocap/cmu. Each clip is retargeted twice in the same
-run: without the balance filter (the baseline) and with it (the default). Per clip and setting:
+Clips default to the offline sample (motionkit/sample/cmu). Each clip is retargeted twice in the
+same run: without the balance filter (the baseline) and with it (the default). Per clip and setting:
 the physics check (share of single-support frames whose needed centre of pressure lies in the
 stance sole; share of single-support frames with every joint within its effort limit; worst
 joint), the open-loop MuJoCo tracking (share of 1 s windows, every 0.1 s, that fall: PD plus
@@ -29,11 +29,12 @@ from pathlib import Path
 from motionkit.dataset import read
 from motionkit.dataset.physics import check_physics
 from motionkit.dataset.tracking import track_windows
+from motionkit.recipes import sample_mocap
 from motionkit.retarget.batch import ClipInput, resolve_inputs, retarget_clip
 from motionkit.retarget.config import Balance, RetargetConfig
 from motionkit.robot import ironcub
 
-SHARED = Path(__file__).resolve().parents[1] / ".." / "shared" / "mocap" / "cmu"
+SHARED = sample_mocap()
 
 
 def measure(clip: ClipInput, config: RetargetConfig, out: Path) -> dict[str, float | str]:
@@ -87,7 +88,9 @@ def row(name: str, setting: str, m: dict[str, float | str]) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("clips", nargs="*", help="mocap files or folders (default: shared walks)")
+    parser.add_argument(
+        "clips", nargs="*", help="mocap files or folders (default: the offline sample)"
+    )
     parser.add_argument("--passes", type=int, default=Balance().passes, help="filter passes")
     parser.add_argument(
         "--slowdown", type=float, default=1.0, help="the balanced clip this many times slower"

@@ -2,7 +2,7 @@
 
     python benchmarks/bench_retarget.py [CLIP ...] [--repeats 5]
 
-Clips default to the CMU walks in ../shared/mocap/cmu (give your own .bvh/.amc otherwise).
+Clips default to the offline sample (motionkit/sample/cmu; give your own .bvh/.amc otherwise).
 Target: at least 1,000 frames/s end to end on one core of the 2-core dev machine for the IK
 without the balance filter (a popular retargeter reports 35-70 frames/s); the default, with the
 filter (physics checks and IK solves per pass), is printed beside it. Baseline in the same run:
@@ -23,6 +23,7 @@ import tempfile
 from dataclasses import replace
 from pathlib import Path
 
+from motionkit.recipes import sample_mocap
 from motionkit.retarget.batch import (
     ClipInput,
     ClipResult,
@@ -31,7 +32,7 @@ from motionkit.retarget.batch import (
 )
 from motionkit.retarget.config import Balance, RetargetConfig
 
-SHARED = Path(__file__).resolve().parents[1] / ".." / "shared" / "mocap" / "cmu"
+SHARED = sample_mocap()
 STAGES = ("read", "targets", "ik", "metrics", "write")
 
 
@@ -69,7 +70,7 @@ def report(name: str, results: list[ClipResult]) -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("clips", nargs="*", help="mocap files (default: ../shared CMU walks)")
+    parser.add_argument("clips", nargs="*", help="mocap files (default: the offline sample)")
     parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args()
     if hasattr(os, "sched_setaffinity"):
@@ -78,7 +79,7 @@ def main() -> None:
         str(p) for p in sorted(SHARED.glob("*.bvh")) + sorted(SHARED.glob("*.amc"))
     ]
     if not inputs:
-        raise SystemExit("no clips: give .bvh/.amc files (../shared/mocap/cmu is not present)")
+        raise SystemExit("no clips: give .bvh/.amc files")
     clips = resolve_inputs(inputs)
     print(f"{len(clips)} clip(s), one core, best of {args.repeats}\n")
     plain = replace(RetargetConfig(), balance=replace(Balance(), passes=0))

@@ -1,4 +1,4 @@
-"""The real CMU clips from ../shared: 02_01 (BVH conversion) and 11_01 (ASF/AMC).
+"""The real CMU clips of the offline sample: 02_01 (BVH conversion) and 11_01 (ASF/AMC).
 
 They are different takes of different subjects, so the checks compare anatomy and statistics.
 """
@@ -9,27 +9,23 @@ import numpy as np
 import pytest
 
 from motionkit.mocap import LANDMARKS, MocapClip, load_mocap
-
-CMU = Path(__file__).resolve().parents[2] / ".." / "shared" / "mocap" / "cmu"
+from motionkit.recipes import sample_mocap
 
 
 @pytest.fixture(scope="module")
 def cmu_dir() -> Path:
-    """../shared/mocap/cmu with the 02_01 BVH and the 11 ASF + 11_01 AMC, or skip."""
-    names = ("cmu_02_01_walk.bvh", "cmu_11.asf", "cmu_11_01_walk.amc")
-    if not all((CMU / name).is_file() for name in names):
-        pytest.skip("../shared/mocap/cmu is not present")
-    return CMU
+    """The package's sample: the 02_01 BVH and the 11 ASF + 11_01 AMC."""
+    return sample_mocap()
 
 
 @pytest.fixture(scope="module")
 def bvh(cmu_dir: Path) -> MocapClip:
-    return load_mocap(cmu_dir / "cmu_02_01_walk.bvh")
+    return load_mocap(cmu_dir / "02_01.bvh")
 
 
 @pytest.fixture(scope="module")
 def amc(cmu_dir: Path) -> MocapClip:
-    return load_mocap(cmu_dir / "cmu_11_01_walk.amc")
+    return load_mocap(cmu_dir / "11_01.amc")
 
 
 def test_headers(bvh: MocapClip, amc: MocapClip, cmu_dir: Path) -> None:
@@ -37,10 +33,10 @@ def test_headers(bvh: MocapClip, amc: MocapClip, cmu_dir: Path) -> None:
     assert (amc.name, amc.format, amc.rate) == ("11_01", "asf/amc", 120.0)
     assert bvh.units_scale == pytest.approx(0.0254 / 0.45)  # detected from the legs
     assert amc.units_scale == pytest.approx(0.0254 / 0.45)  # ASF :units length 0.45
-    declared = int((cmu_dir / "cmu_02_01_walk.bvh").read_text().split("Frames:")[1].split()[0])
+    declared = int((cmu_dir / "02_01.bvh").read_text().split("Frames:")[1].split()[0])
     assert bvh.tpose_dropped and bvh.frames == declared - 1
     assert not amc.tpose_dropped and amc.frames > 500
-    assert load_mocap(cmu_dir / "cmu_02_01_walk.bvh", keep_tpose=True).frames == declared
+    assert load_mocap(cmu_dir / "02_01.bvh", keep_tpose=True).frames == declared
     assert bvh.landmark_map["l_hip"] == "LeftUpLeg" and amc.landmark_map["l_hip"] == "lfemur"
 
 

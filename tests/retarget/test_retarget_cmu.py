@@ -1,25 +1,21 @@
-"""The issue's acceptance figures on the real CMU walks in ../shared (skipped without them)."""
-
-from pathlib import Path
+"""The retargeter's acceptance figures on the real CMU clips of the offline sample."""
 
 import pytest
 
 from motionkit.mocap import load_mocap
+from motionkit.recipes import sample_mocap
 from motionkit.retarget.config import RetargetConfig
 from motionkit.robot import ironcub
 
 pytest.importorskip("placo")
 from motionkit.retarget.core import retarget
 
-CMU = Path(__file__).resolve().parents[2] / ".." / "shared" / "mocap" / "cmu"
+CMU = sample_mocap()
 
 
-@pytest.fixture(scope="module", params=["cmu_02_01_walk.bvh", "cmu_11_01_walk.amc"])
+@pytest.fixture(scope="module", params=["02_01.bvh", "11_01.amc", "35_01.amc"])
 def metrics(request: pytest.FixtureRequest) -> dict:
-    path = CMU / request.param
-    if not path.is_file():
-        pytest.skip("../shared/mocap/cmu is not present")
-    clip = load_mocap(path)
+    clip = load_mocap(CMU / request.param)
     trajectory, _ = retarget(clip.landmarks(), clip.rate, ironcub(), RetargetConfig())
     return trajectory.metadata.metrics
 
