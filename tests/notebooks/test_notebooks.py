@@ -118,7 +118,7 @@ def test_notebook_runs(name: str, tmp_path: Path) -> None:
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))
     env["MOTIONKIT_NB_SMALL"] = "1"
     env["MOTIONKIT_NB_OUT"] = str(tmp_path / "out")
-    env.pop("MOCAP_DIR", None)  # the retarget notebook's synthetic walker, not a local clip
+    env.pop("MOCAP_DIR", None)  # the retarget notebook: the packaged sample, not a local clip
     env.pop("MPLBACKEND", None)  # the kernel's inline backend, so that figures become outputs
     client = nbclient.NotebookClient(
         notebook,
