@@ -5,16 +5,19 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import ClassVar
 
+from motionkit.checks import check
 from motionkit.errors import PipelineError
-from motionkit.tomlfile import build_tables, read_toml
+from motionkit.tomlfile import load, read_toml
 
 
 @dataclass(frozen=True)
 class RetargetStage:
     recipe: str = ""  # settings and CMU clip ids (unless --mocap-dir)
     jobs: int = 0  # processes, 0 = one per CPU
+
+    def __post_init__(self) -> None:
+        check(self, PipelineError, ">= 0", "jobs")
 
 
 @dataclass(frozen=True)
@@ -23,6 +26,9 @@ class TrajoptStage:
     library: str = ""  # a flight library (trajopt/library.toml): every clip it names
     jobs: int = 0  # processes for the library, 0 = one per CPU
     replay: bool = True  # check every flight by a MuJoCo replay
+
+    def __post_init__(self) -> None:
+        check(self, PipelineError, ">= 0", "jobs")
 
 
 @dataclass(frozen=True)
@@ -36,35 +42,21 @@ class TrainStage:
     full_recipe: str = ""  # with --full
     jet: str = "lstm"  # "lstm": the jet model of the jet_ident stage; "ideal": thrust rates
 
+    def __post_init__(self) -> None:
+        check(self, PipelineError, ("lstm", "ideal"), "jet")
+
 
 @dataclass(frozen=True)
 class PipelineConfig:
+    """The stage tables of a recipe file (`source`); every recipe file they name exists."""
+
     source: Path
-    retarget: RetargetStage
-    trajopt: TrajoptStage
-    jet_ident: JetIdentStage
-    train: TrainStage
+    retarget: RetargetStage = RetargetStage()
+    trajopt: TrajoptStage = TrajoptStage()
+    jet_ident: JetIdentStage = JetIdentStage()
+    train: TrainStage = TrainStage()
 
-    TABLES: ClassVar[dict[str, type]] = {
-        "retarget": RetargetStage,
-        "trajopt": TrajoptStage,
-        "jet_ident": JetIdentStage,
-        "train": TrainStage,
-    }
-
-    @classmethod
-    def from_toml(cls, path: Path) -> PipelineConfig:
-        data = read_toml(path, "pipeline config", PipelineError)
-        config = cls(Path(path), **build_tables(data, cls.TABLES, str(path), PipelineError))
-        config.check()
-        return config
-
-    def resolve(self, relative: str) -> Path:
-        """A path of the recipe, relative to the recipe file."""
-        return (self.source.parent / relative).resolve()
-
-    def check(self) -> None:
-        """Every recipe file named exists; the choices are valid."""
+    def __post_init__(self) -> None:
         named = {
             "[retarget] recipe": [self.retarget.recipe],
             "[trajopt] recipes or library": [*self.trajopt.recipes, self.trajopt.library],
@@ -74,15 +66,18 @@ class PipelineConfig:
         }
         for key, paths in named.items():
             if not any(paths):
-                raise PipelineError(f"{self.source}: {key} is missing (a path to a recipe)")
+                raise PipelineError(f"{key} is missing (a path to a recipe)")
             for relative in filter(None, paths):
                 if not self.resolve(relative).is_file():
                     raise PipelineError(
-                        f"{self.source}: {key}: {relative} does not exist "
-                        f"(looked for {self.resolve(relative)})"
+                        f"{key}: {relative} does not exist (looked for {self.resolve(relative)})"
                     )
-        if self.train.jet not in ("lstm", "ideal"):
-            raise PipelineError(f"{self.source}: [train] jet should be 'lstm' or 'ideal'")
-        for table in ("retarget", "trajopt"):
-            if getattr(self, table).jobs < 0:
-                raise PipelineError(f"{self.source}: [{table}] jobs should be >= 0")
+
+    @classmethod
+    def from_toml(cls, path: Path) -> PipelineConfig:
+        data = read_toml(path, "pipeline config", PipelineError)
+        return load(cls, data, str(path), PipelineError, source=Path(path))
+
+    def resolve(self, relative: str) -> Path:
+        """A path of the recipe, relative to the recipe file."""
+        return (self.source.parent / relative).resolve()
