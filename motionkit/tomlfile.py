@@ -1,14 +1,16 @@
-"""TOML input files: reading them, and filling frozen config dataclasses from their tables,
-with errors of the caller's family."""
+"""TOML input files: reading them, filling frozen config dataclasses from their tables (with
+errors of the caller's family) and writing resolved configs back."""
 
 from __future__ import annotations
 
 import tomllib
-from dataclasses import fields, replace
+from dataclasses import MISSING, fields, is_dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar, get_args, get_origin, get_type_hints
 
 from motionkit.errors import MotionkitError
+
+T = TypeVar("T")
 
 
 def read_toml(path: Path, what: str, error: type[MotionkitError]) -> dict[str, Any]:
@@ -21,60 +23,119 @@ def read_toml(path: Path, what: str, error: type[MotionkitError]) -> dict[str, A
         raise error(f"{path}: not valid TOML ({exc})") from exc
 
 
-def build_dataclass(
-    cls: type, values: dict[str, Any], where: str, error: type[MotionkitError]
-) -> Any:
-    """`cls()` with `values` replacing its defaults, each checked against the default's type
-    (TOML lists become tuples, integers become floats where a float is expected); `error`
-    names `where`, the key and what was expected."""
-    known = {f.name for f in fields(cls)}
-    unknown = sorted(set(values) - known)
-    if unknown:
-        raise error(f"{where}: unknown keys {unknown}; known: {sorted(known)}")
-    default = cls()
-    converted = {}
-    for key, value in values.items():
-        expected = getattr(default, key)
-        if isinstance(expected, tuple) and isinstance(value, list):
-            value = tuple(float(v) if _is_int(v) and _floats(expected) else v for v in value)
-        elif isinstance(expected, float) and _is_int(value):
-            value = float(value)
-        if not isinstance(value, type(expected)) or isinstance(value, bool) != isinstance(
-            expected, bool
-        ):
-            raise error(f"{where}: '{key}' should be {type(expected).__name__}, got {value!r}")
-        converted[key] = value
-    try:
-        return replace(default, **converted)
-    except error as exc:  # the dataclass's own checks, located
-        raise error(f"{where}: {exc}") from exc
+def load(cls: type[T], data: Any, where: str, error: type[MotionkitError], **given: Any) -> T:
+    """The dataclass `cls` filled from a TOML table: a key left out keeps its default, a nested
+    dataclass is read from a sub-table (a tuple or dict of them from a list or table of tables),
+    a list becomes a tuple, an integer a float where a float is expected. `error` names `where`,
+    the [table] and the key of an unknown or missing key, of a value of the wrong type and of one
+    the dataclass itself refuses. The fields in `given` are passed as they are, not read."""
+    return _table(cls, data, where, "", error, given)
 
 
-def build_tables(
-    data: dict[str, Any],
-    tables: dict[str, type],
+class _Mismatch(Exception):
+    """A value is not of the type its field expects."""
+
+
+def _table(
+    cls: type[T],
+    data: Any,
     where: str,
+    table: str,
     error: type[MotionkitError],
-    others: tuple[str, ...] = (),
-) -> dict[str, Any]:
-    """One dataclass per [table] of a recipe (`build_dataclass`; a table left out keeps its
-    defaults); a table that is neither in `tables` nor in `others` is refused."""
-    unknown = sorted(set(data) - set(tables) - set(others))
+    given: dict[str, Any],
+) -> T:
+    at = f"{where}: [{table}]" if table else where
+    if not isinstance(data, dict):
+        raise error(f"{at}: should be a table, got {data!r}")
+    known = {f.name: f for f in fields(cls) if f.name not in given}  # type: ignore[arg-type]
+    unknown = sorted(set(data) - set(known))
     if unknown:
-        known = sorted([*tables, *others])
-        raise error(f"{where}: unknown tables {unknown}; known: {known}")
+        raise error(f"{at}: unknown keys {unknown}; known: {sorted(known)}")
+    missing = [
+        repr(name)
+        for name, f in known.items()
+        if name not in data and f.default is MISSING and f.default_factory is MISSING
+    ]
+    if missing:
+        raise error(f"{at}: missing {', '.join(missing)}")
+    hints = get_type_hints(cls)
     values = {}
-    for name, kind in tables.items():
-        table = data.get(name, {})
-        if not isinstance(table, dict):
-            raise error(f"{where}: '{name}' should be a table [{name}]")
-        values[name] = build_dataclass(kind, table, f"{where}: [{name}]", error)
-    return values
+    for key, value in data.items():
+        try:
+            values[key] = _value(
+                hints[key], value, where, f"{table}.{key}" if table else key, error
+            )
+        except _Mismatch:
+            expected = _describe(hints[key])
+            raise error(f"{at}: '{key}' should be {expected}, got {value!r}") from None
+    try:
+        return cls(**values, **given)
+    except error as exc:  # the dataclass's own checks, located
+        raise error(f"{at}: {exc}") from exc
 
 
-def _is_int(value: object) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool)
+def _value(hint: Any, value: Any, where: str, path: str, error: type[MotionkitError]) -> Any:
+    """`value` as the type `hint`; _Mismatch if it is not one."""
+    if is_dataclass(hint):
+        return _table(hint, value, where, path, error, {})  # type: ignore[arg-type]
+    origin, args = get_origin(hint), get_args(hint)
+    if origin is tuple:
+        if not isinstance(value, list | tuple):
+            raise _Mismatch
+        kinds = args[:1] * len(value) if args[1:] == (Ellipsis,) else args
+        if len(kinds) != len(value):
+            raise _Mismatch
+        return tuple(
+            _value(kind, item, where, f"{path}[{i}]", error)
+            for i, (kind, item) in enumerate(zip(kinds, value, strict=True))
+        )
+    if origin is dict:
+        if not isinstance(value, dict):
+            raise _Mismatch
+        return {
+            key: _value(args[1], item, where, f"{path}.{key}", error) for key, item in value.items()
+        }
+    if hint is Any:
+        return value
+    if hint is float and isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    if isinstance(value, hint) and isinstance(value, bool) == (hint is bool):
+        return value
+    raise _Mismatch
 
 
-def _floats(default: tuple) -> bool:
-    return bool(default) and all(isinstance(v, float) for v in default)
+def _describe(hint: Any) -> str:
+    """How a value of the type `hint` is written in TOML, for messages."""
+    if is_dataclass(hint):
+        return "a table"
+    origin, args = get_origin(hint), get_args(hint)
+    if origin is tuple:
+        return "[" + ", ".join("..." if a is Ellipsis else _describe(a) for a in args) + "]"
+    if origin is dict:
+        return f"a table of {_describe(args[1])}"
+    return getattr(hint, "__name__", str(hint))
+
+
+def to_toml(data: dict[str, Any]) -> str:
+    """A resolved config (`asdict` of one) as TOML text that `load` reads back."""
+    return "\n".join(_toml_lines(data, "")).strip() + "\n"
+
+
+def _toml_lines(data: dict[str, Any], table: str) -> list[str]:
+    """The values of `data` under a [table] header, then each dict among them as a table."""
+    values = [f"{key} = {_toml_value(v)}" for key, v in data.items() if not isinstance(v, dict)]
+    lines = ["", f"[{table}]", *values] if table and values else values
+    for key, value in data.items():
+        if isinstance(value, dict):
+            lines += _toml_lines(value, f"{table}.{key}" if table else key)
+    return lines
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    return repr(value)

@@ -20,6 +20,7 @@ import numpy as np
 from scipy.optimize import nnls
 from scipy.spatial import ConvexHull, QhullError
 
+from motionkit.checks import check
 from motionkit.dataset.trajectory import Trajectory
 from motionkit.errors import DatasetError
 from motionkit.extras import require
@@ -27,7 +28,7 @@ from motionkit.filters import low_pass
 from motionkit.robot import Robot
 from motionkit.robot.geometry import Array, to_rotation
 from motionkit.robot.spec import THRUST_AXIS
-from motionkit.tomlfile import build_dataclass, read_toml
+from motionkit.tomlfile import load, read_toml
 
 GRAVITY = 9.81  # m/s^2, as in MuJoCo and pinocchio (the trajopt's 9.80665 differs by 0.03 %)
 # Moments are weighed against forces at this lever [m] in the least-squares split and the
@@ -71,28 +72,17 @@ class PhysicsConfig:
     min_explained_share: float = 0.9  # frames whose residual is within residual_tolerance
 
     def __post_init__(self) -> None:
-        if self.differences not in ("central", "forward"):
-            raise DatasetError(
-                f"physics 'differences' should be 'central' or 'forward', got {self.differences!r}"
-            )
-        for item in fields(self):
-            value = getattr(self, item.name)
-            if isinstance(value, str):
-                continue
-            if not math.isfinite(value) or value < 0:
-                raise DatasetError(f"physics '{item.name}' should be finite and >= 0, got {value}")
-        for name in ("min_cop_inside_share", "min_torque_within_share",
-                     "min_friction_within_share", "min_explained_share"):  # fmt: skip
-            if getattr(self, name) > 1:
-                raise DatasetError(f"physics '{name}' is a share and should be <= 1")
-        if self.friction == 0:
-            raise DatasetError("physics 'friction' should be > 0")
+        check(self, DatasetError, ("central", "forward"), "differences")
+        check(self, DatasetError, "> 0", "friction")
+        check(self, DatasetError, ">= 0", "cop_margin", "residual_tolerance", "smoothing_hz")
+        check(self, DatasetError, ">= 0", "contact_height", "contact_speed")
+        shares = [item.name for item in fields(self) if item.name.endswith("_share")]
+        check(self, DatasetError, "in [0, 1]", *shares)
 
     @classmethod
     def from_toml(cls, path: Path) -> PhysicsConfig:
         """A TOML file of this config's keys (the others keep their defaults)."""
-        data = read_toml(path, "physics config", DatasetError)
-        return build_dataclass(cls, data, str(path), DatasetError)
+        return load(cls, read_toml(path, "physics config", DatasetError), str(path), DatasetError)
 
 
 @dataclass(frozen=True)

@@ -10,14 +10,9 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from motionkit.checks import check
 from motionkit.errors import JetIdentError
-from motionkit.tomlfile import build_tables, read_toml
-
-
-def _positive(config: Any, names: tuple[str, ...]) -> None:
-    for name in names:
-        if not getattr(config, name) > 0:
-            raise JetIdentError(f"{name} must be > 0, got {getattr(config, name)!r}")
+from motionkit.tomlfile import load, read_toml, to_toml
 
 
 @dataclass(frozen=True)
@@ -57,11 +52,13 @@ class BenchConfig:
         )
 
     def __post_init__(self) -> None:
-        _positive(self, ("duration_s", "rate_hz", "substeps", "sensor_cutoff_hz"))
-        if self.noise_std_n < 0 or self.delay_s < 0 or self.throttle_step_pct < 0:
-            raise JetIdentError("[bench]: noise_std_n, delay_s, throttle_step_pct must be >= 0")
-        if len(self.ambient_c) != 2 or self.ambient_c[0] > self.ambient_c[1]:
-            raise JetIdentError("[bench]: ambient_c should be [low, high] in degC")
+        check(self, JetIdentError, "> 0", "duration_s", "rate_hz", "sensor_cutoff_hz")
+        check(self, JetIdentError, ">= 1", "substeps")
+        check(self, JetIdentError, ">= 0", "noise_std_n", "delay_s", "throttle_step_pct")
+        check(self, JetIdentError, "finite", "ambient_c", "ambient_drift_c", "reference_c")
+        check(self, JetIdentError, "[low, high]", "ambient_c")
+        check(self, JetIdentError, ">= 0", "seed", "train_seeds", "heldout_seeds")
+        check(self, JetIdentError, "non-empty", "train_seeds")
 
 
 @dataclass(frozen=True)
@@ -69,7 +66,7 @@ class ModelConfig:
     hidden: int = 32  # LSTM features
 
     def __post_init__(self) -> None:
-        _positive(self, ("hidden",))
+        check(self, JetIdentError, ">= 1", "hidden")
 
 
 @dataclass(frozen=True)
@@ -91,10 +88,11 @@ class TrainConfig:
     seed: int = 0
 
     def __post_init__(self) -> None:
-        _positive(self, ("warmup", "window", "batch", "learning_rate", "max_steps"))
-        _positive(self, ("eval_every", "patience", "max_minutes"))
-        if not 0 < self.validation_fraction < 1:
-            raise JetIdentError("[train]: validation_fraction must be between 0 and 1")
+        check(self, JetIdentError, ">= 1", "warmup", "window", "batch", "max_steps")
+        check(self, JetIdentError, ">= 1", "eval_every", "patience")
+        check(self, JetIdentError, "> 0", "learning_rate", "clip_norm", "max_minutes")
+        check(self, JetIdentError, "in (0, 1)", "validation_fraction")
+        check(self, JetIdentError, ">= 0", "seed")
 
 
 @dataclass(frozen=True)
@@ -109,25 +107,11 @@ class JetIdentConfig:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<config>") -> JetIdentConfig:
-        tables = {"bench": BenchConfig, "model": ModelConfig, "train": TrainConfig}
-        return cls(**build_tables(data, tables, source, JetIdentError))
+        return load(cls, data, source, JetIdentError)
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
     def to_toml(self) -> str:
         """The resolved config as TOML (what `from_toml` reads back)."""
-        lines = []
-        for name, table in self.to_dict().items():
-            lines.append(f"[{name}]")
-            lines += [f"{key} = {_toml_value(value)}" for key, value in table.items()]
-            lines.append("")
-        return "\n".join(lines)
-
-
-def _toml_value(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, list | tuple):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    return repr(value)
+        return to_toml(self.to_dict())

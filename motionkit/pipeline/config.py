@@ -5,11 +5,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import ClassVar
 
 from motionkit import recipes
+from motionkit.checks import check
 from motionkit.errors import PipelineError
-from motionkit.tomlfile import build_tables, read_toml
+from motionkit.tomlfile import load, read_toml
 
 
 @dataclass(frozen=True)
@@ -18,13 +18,19 @@ class RetargetStage:
     fetch_recipe: str = ""  # with --fetch: a recipe whose CMU clip ids are downloaded
     jobs: int = 0  # processes, 0 = one per CPU
 
+    def __post_init__(self) -> None:
+        check(self, PipelineError, ">= 0", "jobs")
+
 
 @dataclass(frozen=True)
 class TrajoptStage:
     recipes: tuple[str, ...] = field(default_factory=tuple)  # one flight per recipe
-    library: str = ""  # a flight library (trajopt/library.toml): every clip it names
+    library: str = ""  # a flight library (the built-in: library): every clip it names
     jobs: int = 0  # processes for the library, 0 = one per CPU
     replay: bool = True  # check every flight by a MuJoCo replay
+
+    def __post_init__(self) -> None:
+        check(self, PipelineError, ">= 0", "jobs")
 
 
 @dataclass(frozen=True)
@@ -38,36 +44,21 @@ class TrainStage:
     full_recipe: str = ""  # with --full
     jet: str = "lstm"  # "lstm": the jet model of the jet_ident stage; "ideal": thrust rates
 
+    def __post_init__(self) -> None:
+        check(self, PipelineError, ("lstm", "ideal"), "jet")
+
 
 @dataclass(frozen=True)
 class PipelineConfig:
+    """The stage tables of a recipe file (`source`); every recipe file they name exists."""
+
     source: Path
-    retarget: RetargetStage
-    trajopt: TrajoptStage
-    jet_ident: JetIdentStage
-    train: TrainStage
+    retarget: RetargetStage = RetargetStage()
+    trajopt: TrajoptStage = TrajoptStage()
+    jet_ident: JetIdentStage = JetIdentStage()
+    train: TrainStage = TrainStage()
 
-    TABLES: ClassVar[dict[str, type]] = {
-        "retarget": RetargetStage,
-        "trajopt": TrajoptStage,
-        "jet_ident": JetIdentStage,
-        "train": TrainStage,
-    }
-
-    @classmethod
-    def from_toml(cls, path: Path) -> PipelineConfig:
-        data = read_toml(path, "pipeline config", PipelineError)
-        config = cls(Path(path), **build_tables(data, cls.TABLES, str(path), PipelineError))
-        config.check()
-        return config
-
-    def resolve(self, stage: str, text: str) -> Path:
-        """A stage recipe the pipeline recipe names: a file relative to it, or a built-in."""
-        path = self.source.parent / text
-        return path.resolve() if path.is_file() else recipes.find(stage, text).resolve()
-
-    def check(self) -> None:
-        """Every recipe file named exists; the choices are valid."""
+    def __post_init__(self) -> None:
         named = {
             "[retarget] recipe": [self.retarget.recipe],
             "[trajopt] recipes or library": [*self.trajopt.recipes, self.trajopt.library],
@@ -77,15 +68,20 @@ class PipelineConfig:
         }
         for key, texts in named.items():
             if not any(texts):
-                raise PipelineError(f"{self.source}: {key} is missing (a recipe path or name)")
+                raise PipelineError(f"{key} is missing (a recipe path or name)")
             stage = key[1 : key.index("]")]
             for text in filter(None, [*texts, self.retarget.fetch_recipe * (stage == "retarget")]):
                 try:
                     self.resolve(stage, text)
                 except recipes.RecipeError as exc:
-                    raise PipelineError(f"{self.source}: {key}: {exc}") from None
-        if self.train.jet not in ("lstm", "ideal"):
-            raise PipelineError(f"{self.source}: [train] jet should be 'lstm' or 'ideal'")
-        for table in ("retarget", "trajopt"):
-            if getattr(self, table).jobs < 0:
-                raise PipelineError(f"{self.source}: [{table}] jobs should be >= 0")
+                    raise PipelineError(f"{key}: {exc}") from None
+
+    @classmethod
+    def from_toml(cls, path: Path) -> PipelineConfig:
+        data = read_toml(path, "pipeline config", PipelineError)
+        return load(cls, data, str(path), PipelineError, source=Path(path))
+
+    def resolve(self, stage: str, text: str) -> Path:
+        """A stage recipe the pipeline recipe names: a file relative to it, or a built-in."""
+        path = self.source.parent / text
+        return path.resolve() if path.is_file() else recipes.find(stage, text).resolve()

@@ -2,20 +2,13 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from motionkit.checks import check
 from motionkit.errors import RetargetError
-from motionkit.tomlfile import build_dataclass, read_toml
-
-
-def _check(config: object, name: str, low: float, expected: str, strict: bool = False) -> None:
-    """A RetargetError unless the field `name` is finite and at least (or, strict, above) `low`."""
-    value = getattr(config, name)
-    if not math.isfinite(value) or value < low or (strict and value == low):
-        raise RetargetError(f"'{name}' should be finite and {expected}, got {value}")
+from motionkit.tomlfile import load, read_toml
 
 
 @dataclass(frozen=True)
@@ -35,8 +28,7 @@ class Weights:
     posture: float = 1e-3
 
     def __post_init__(self) -> None:
-        for item in fields(self):
-            _check(self, item.name, 0.0, ">= 0")
+        check(self, RetargetError, ">= 0", *(item.name for item in fields(self)))
 
 
 @dataclass(frozen=True)
@@ -51,6 +43,9 @@ class RobotPoints:
     elbow: tuple[str, ...] = ("{s}_elbow",)
     sides: tuple[str, str] = ("l", "r")  # the prefixes of the left and right joints
     torso_frame: str = "chest"
+
+    def __post_init__(self) -> None:
+        check(self, RetargetError, "non-empty", "hip", "knee", "ankle", "shoulder", "elbow")
 
 
 @dataclass(frozen=True)
@@ -70,12 +65,8 @@ class Balance:
     smooth: float = 1e-2  # weight of the shift's own cart-table CoP swing (its acceleration)
 
     def __post_init__(self) -> None:
-        if self.passes < 0:
-            raise RetargetError(f"balance passes should be >= 0, got {self.passes}")
-        for name in ("margin", "stay", "smooth"):
-            _check(self, name, 0.0, ">= 0")
-        for name in ("error_cap", "max_shift"):
-            _check(self, name, 0.0, "> 0", strict=True)
+        check(self, RetargetError, ">= 0", "passes", "margin", "stay", "smooth")
+        check(self, RetargetError, "> 0", "error_cap", "max_shift")
 
 
 @dataclass(frozen=True)
@@ -124,19 +115,13 @@ class RetargetConfig:
     def __post_init__(self) -> None:
         from motionkit.dataset.trajectory import KINDS
 
-        if self.kind not in KINDS:
-            raise RetargetError(f"kind '{self.kind}' is not one of {', '.join(KINDS)}")
-        for name in (
-            "contact_height",
-            "contact_speed",
-            "ground_window",
-            "release_time",
-            "slowdown",
-        ):
-            _check(self, name, 0.0, "> 0", strict=True)
-        for name in ("min_run", "ground_range"):
-            _check(self, name, 0.0, ">= 0")
-        _check(self, "contact_hysteresis", 1.0, ">= 1")
+        check(self, RetargetError, KINDS, "kind")
+        positive = ("contact_height", "contact_speed", "ground_window", "release_time", "slowdown")
+        check(self, RetargetError, "> 0", *positive)
+        check(self, RetargetError, ">= 0", "smoothing_hz", "min_run", "ground_range")  # 0: off
+        check(self, RetargetError, ">= 0", "collision_margin")
+        check(self, RetargetError, ">= 1", "contact_hysteresis", "iterations", "settle_iterations")
+        check(self, RetargetError, "finite", "arm_abduction")
 
     @classmethod
     def from_toml(cls, path: Path) -> RetargetConfig:
@@ -144,18 +129,7 @@ class RetargetConfig:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<config>") -> RetargetConfig:
-        nested = {"weights": Weights, "points": RobotPoints, "balance": Balance}
-        values: dict[str, Any] = {}
-        for key, value in data.items():
-            if key in nested:
-                values[key] = _build(nested[key], value, f"{source}: [{key}]")
-            else:
-                values[key] = value
-        return _build(cls, values, source)
+        return load(cls, data, source, RetargetError)
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
-
-
-def _build(cls: type, values: dict[str, Any], where: str) -> Any:
-    return build_dataclass(cls, values, where, RetargetError)

@@ -8,14 +8,16 @@ is `ironcub.toml` in this folder; a user robot passes its own with `--spec`.
 from __future__ import annotations
 
 import fnmatch
+import math
 import tomllib
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from motionkit.checks import check, refusal
 from motionkit.errors import RobotModelError
-from motionkit.tomlfile import read_toml
+from motionkit.tomlfile import load, read_toml
 
 # Thrust acts along this axis of every jet frame (the frame origin is at the nozzle).
 THRUST_AXIS = (0.0, 0.0, -1.0)
@@ -27,12 +29,18 @@ class FootSpec:
     sole: str
     corners: tuple[str, ...]
 
+    def __post_init__(self) -> None:
+        check(self, RobotModelError, "non-empty", "corners")
+
 
 @dataclass(frozen=True)
 class JetSpec:
     name: str
     frame: str
     t_max: float  # N
+
+    def __post_init__(self) -> None:
+        check(self, RobotModelError, "> 0", "t_max")
 
 
 @dataclass(frozen=True)
@@ -41,8 +49,9 @@ class PdGain:
     kp: float
     kd: float
 
-
-PD_FIELDS = (("joints", str), ("kp", float), ("kd", float))
+    def __post_init__(self) -> None:
+        check(self, RobotModelError, "> 0", "kp")
+        check(self, RobotModelError, ">= 0", "kd")
 
 
 @dataclass(frozen=True)
@@ -50,6 +59,9 @@ class LimitDefaults:
     placeholder: float = 1000.0
     default_velocity: float = 7.64
     default_effort: float = 37.0
+
+    def __post_init__(self) -> None:
+        check(self, RobotModelError, "> 0", "placeholder", "default_velocity", "default_effort")
 
 
 @dataclass(frozen=True)
@@ -59,6 +71,11 @@ class SimulationSpec:
     damping: float = 0.5
     timestep: float = 0.002
     friction: float = 1.0
+
+    def __post_init__(self) -> None:
+        check(self, RobotModelError, "non-empty", "pd")
+        check(self, RobotModelError, ">= 0", "armature", "damping")
+        check(self, RobotModelError, "> 0", "timestep", "friction")
 
     def gains(self, joint: str) -> tuple[float, float]:
         gain = next((g for g in self.pd if fnmatch.fnmatchcase(joint, g.joints)), None)
@@ -83,6 +100,16 @@ class RobotSpec:
     limits: LimitDefaults = LimitDefaults()
     simulation: SimulationSpec = SimulationSpec()
     source: str = "<memory>"
+
+    def __post_init__(self) -> None:
+        x, y, z = self.forward
+        if not (z == 0 and abs(math.hypot(x, y) - 1) < 1e-6):  # NaN fails too
+            expected = "a horizontal unit vector [x, y, 0]"
+            raise refusal(RobotModelError, "forward", expected, self.forward)
+        if not all(math.isfinite(angle) for _, angle in self.posture):
+            raise refusal(RobotModelError, "posture", "finite angles [rad]", dict(self.posture))
+        check(self, RobotModelError, "non-empty", "joints", "feet", "jets")
+        check(self, RobotModelError, "distinct", "joints")
 
     @property
     def frames(self) -> tuple[str, ...]:
@@ -113,74 +140,11 @@ class RobotSpec:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str) -> RobotSpec:
-        def need(table: dict[str, Any], key: str, kind: type, where: str) -> Any:
-            if key not in table:
-                raise RobotModelError(f"{source}: missing '{where}{key}'")
-            value = table[key]
-            if kind is float and isinstance(value, int):
-                value = float(value)
-            if not isinstance(value, kind):
-                raise RobotModelError(
-                    f"{source}: '{where}{key}' should be a {kind.__name__}, got {value!r}"
-                )
-            return value
-
-        forward = need(data, "forward", list, "")
-        if len(forward) != 3:
-            raise RobotModelError(f"{source}: 'forward' should be 3 numbers, got {forward}")
-        feet_table = need(data, "feet", dict, "")
-        feet = tuple(
-            FootSpec(
-                side,
-                need(foot, "sole", str, f"feet.{side}."),
-                tuple(need(foot, "corners", list, f"feet.{side}.")),
-            )
-            for side, foot in feet_table.items()
-        )
-        jets = tuple(
-            JetSpec(
-                need(jet, "name", str, f"jets[{i}]."),
-                need(jet, "frame", str, f"jets[{i}]."),
-                need(jet, "t_max", float, f"jets[{i}]."),
-            )
-            for i, jet in enumerate(data.get("jets", []))
-        )
-        for jet in jets:
-            if jet.t_max <= 0:
-                raise RobotModelError(f"{source}: jet '{jet.name}' needs t_max > 0 N")
-        sim = data.get("simulation", {})
-        pd = tuple(
-            PdGain(*(need(g, k, t, f"simulation.pd[{i}].") for k, t in PD_FIELDS))
-            for i, g in enumerate(sim.get("pd", []))
-        )
-        simulation = _table(
-            SimulationSpec,
-            {k: float(v) for k, v in sim.items() if k != "pd"} | ({"pd": pd} if pd else {}),
-            f"{source}: [simulation]",
-        )
-        return cls(
-            name=need(data, "name", str, ""),
-            root=need(data, "root", str, ""),
-            forward=tuple(float(v) for v in forward),  # type: ignore[arg-type]
-            joints=tuple(need(data, "joints", list, "")),
-            feet=feet,
-            jets=jets,
-            elbows=tuple(data.get("elbows", [])),
-            hands=tuple(data.get("hands", [])),
-            posture=tuple((k, float(v)) for k, v in data.get("posture", {}).items()),
-            limits=_table(
-                LimitDefaults,
-                {k: float(v) for k, v in data.get("limits", {}).items()},
-                f"{source}: [limits]",
-            ),
-            simulation=simulation,
-            source=source,
-        )
-
-
-def _table(cls: type, values: dict[str, Any], where: str) -> Any:
-    known = set(cls.__dataclass_fields__)
-    unknown = sorted(set(values) - known)
-    if unknown:
-        raise RobotModelError(f"{where} has unknown keys {unknown}; known: {sorted(known)}")
-    return cls(**values)
+        """The spec of a TOML file's tables: [feet.SIDE] become FootSpecs, [posture] pairs."""
+        data = dict(data)
+        if isinstance(data.get("feet"), dict):
+            feet = data["feet"].items()
+            data["feet"] = [{"side": s, **f} if isinstance(f, dict) else f for s, f in feet]
+        if isinstance(data.get("posture"), dict):
+            data["posture"] = list(data["posture"].items())
+        return load(cls, data, source, RobotModelError, source=source)

@@ -9,44 +9,16 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any
 
+from motionkit.checks import check, refusal
 from motionkit.errors import TrainError
-from motionkit.tomlfile import build_tables, read_toml
+from motionkit.tomlfile import load, read_toml, to_toml
 
 SCENARIOS = ("flat", "terrain")
 JETS = ("ideal", "lstm")
 ACTION_MAPPINGS = ("range", "stand")
 LR_SCHEDULES = ("constant", "adaptive")
-
-
-def _positive(config: Any, names: tuple[str, ...]) -> None:
-    for name in names:
-        if not getattr(config, name) > 0:
-            raise TrainError(f"'{name}' must be > 0, got {getattr(config, name)!r}")
-
-
-def _share(config: Any, names: tuple[str, ...]) -> None:
-    for name in names:
-        if not 0 <= getattr(config, name) <= 1:
-            raise TrainError(f"'{name}' must be in [0, 1], got {getattr(config, name)!r}")
-
-
-def _non_negative(config: Any, names: tuple[str, ...]) -> None:
-    for name in names:
-        if not getattr(config, name) >= 0:
-            raise TrainError(f"'{name}' must be >= 0, got {getattr(config, name)!r}")
-
-
-def _choice(config: Any, name: str, choices: tuple[str, ...]) -> None:
-    if getattr(config, name) not in choices:
-        raise TrainError(f"'{name}' should be one of {choices}, got {getattr(config, name)!r}")
-
-
-def _interval(config: Any, name: str, low: float = 0.0) -> None:
-    value = getattr(config, name)
-    if len(value) != 2 or not low <= value[0] <= value[1]:
-        raise TrainError(f"'{name}' should be [low, high] with {low} <= low <= high, got {value}")
 
 
 @dataclass(frozen=True)
@@ -92,19 +64,20 @@ class EnvConfig:
         return round(self.episode_seconds * self.control_hz)
 
     def __post_init__(self) -> None:
-        _choice(self, "scenario", SCENARIOS)
-        _choice(self, "jet", JETS)
-        _choice(self, "action_mapping", ACTION_MAPPINGS)
+        check(self, TrainError, SCENARIOS, "scenario")
+        check(self, TrainError, JETS, "jet")
+        check(self, TrainError, ACTION_MAPPINGS, "action_mapping")
         if self.jet == "lstm" and not self.jet_model:
             raise TrainError("jet = 'lstm' needs 'jet_model', the model.npz of jet-ident fit")
-        _positive(self, ("control_hz", "substeps", "episode_seconds", "action_scale"))
-        _positive(self, ("thrust_rate_max", "waypoint_radius", "ground_height"))
-        _positive(self, ("solver_iterations", "ls_iterations", "terrain_size"))
-        _non_negative(self, ("timeout_factor", "timeout_extra", "air_curriculum"))
-        _share(self, ("air_probability", "reset_from_prior"))
-        _interval(self, "waypoint_distance", 0.0)
-        _interval(self, "air_height", 0.0)
-        _interval(self, "initial_thrust", 0.0)
+        check(self, TrainError, "> 0", "control_hz", "episode_seconds", "action_scale")
+        check(self, TrainError, "> 0", "thrust_rate_max", "waypoint_radius", "ground_height")
+        check(self, TrainError, "> 0", "terrain_size")
+        check(self, TrainError, ">= 1", "substeps", "solver_iterations", "ls_iterations")
+        check(self, TrainError, ">= 0", "timeout_factor", "timeout_extra", "air_curriculum")
+        check(self, TrainError, ">= 0", "min_base_height", "joint_noise", "terrain_seed")
+        check(self, TrainError, "in [0, 1]", "air_probability", "reset_from_prior")
+        check(self, TrainError, ">= 0", "waypoint_distance", "air_height", "initial_thrust")
+        check(self, TrainError, "[low, high]", "waypoint_distance", "air_height", "initial_thrust")
         if self.jet == "lstm" and self.initial_thrust != (0.0, 0.0):
             raise TrainError("'initial_thrust' needs jet = 'ideal' (the LSTM starts at idle)")
         if self.waypoint_timeout and self.timeout_factor + self.timeout_extra <= 0:
@@ -124,6 +97,11 @@ class RewardConfig:
     v_desired: float = 0.5  # m/s (the walking priors average 0.40-0.61 m/s)
     w_task: float = 0.5  # w_G
     w_style: float = 0.5  # w_S (0 when no prior is used)
+
+    def __post_init__(self) -> None:
+        check(self, TrainError, ">= 0", "w_target", "w_velocity", "w_facing", "w_thrust")
+        check(self, TrainError, ">= 0", "w_task", "w_style")
+        check(self, TrainError, "> 0", "c1", "c2", "v_desired")
 
 
 @dataclass(frozen=True)
@@ -155,18 +133,18 @@ class PpoConfig:
     critic_hidden: tuple[int, ...] = (512, 256, 128)
 
     def __post_init__(self) -> None:
-        _positive(self, ("num_envs", "rollout_steps", "epochs", "minibatch_size"))
-        _positive(self, ("learning_rate", "kl_target", "clip", "init_std"))
-        _non_negative(self, ("value_clip", "entropy_coef", "value_coef", "bounds_coef"))
-        _choice(self, "lr_schedule", LR_SCHEDULES)
+        check(self, TrainError, ">= 1", "num_envs", "rollout_steps", "epochs", "minibatch_size")
+        check(self, TrainError, ">= 1", "actor_hidden", "critic_hidden")
+        check(self, TrainError, "> 0", "learning_rate", "kl_target", "clip", "init_std")
+        check(self, TrainError, "> 0", "max_grad_norm")
+        check(self, TrainError, ">= 0", "value_clip", "entropy_coef", "value_coef", "bounds_coef")
+        check(self, TrainError, "in (0, 1]", "gamma", "lam")
+        check(self, TrainError, LR_SCHEDULES, "lr_schedule")
         if (self.num_envs * self.rollout_steps) % self.minibatch_size:
             raise TrainError(
                 f"num_envs x rollout_steps ({self.num_envs * self.rollout_steps}) must be a "
                 f"multiple of minibatch_size ({self.minibatch_size})"
             )
-        for name in ("gamma", "lam"):
-            if not 0 < getattr(self, name) <= 1:
-                raise TrainError(f"'{name}' must be in (0, 1], got {getattr(self, name)}")
 
     @property
     def minibatches(self) -> int:
@@ -190,13 +168,13 @@ class AmpConfig:
     style_scale: float = 2.0  # r_S = style_scale * -log(max(1 - D, 1e-4))
 
     def __post_init__(self) -> None:
-        _positive(self, ("learning_rate", "batch_size", "buffer_size", "style_scale"))
-        _non_negative(self, ("updates", "gradient_penalty", "logit_reg", "weight_decay"))
-        if not 0 < self.replay_keep <= 1:
-            raise TrainError(f"'replay_keep' must be in (0, 1], got {self.replay_keep!r}")
+        check(self, TrainError, ">= 1", "hidden", "batch_size", "buffer_size")
+        check(self, TrainError, "> 0", "learning_rate", "style_scale")
+        check(self, TrainError, ">= 0", "updates", "gradient_penalty", "logit_reg", "weight_decay")
+        check(self, TrainError, "in (0, 1]", "replay_keep")
         if self.batch_size % 2:
-            raise TrainError(
-                f"'batch_size' must be even (half replay, half rollout), got {self.batch_size}"
+            raise refusal(
+                TrainError, "batch_size", "even (half replay, half rollout)", self.batch_size
             )
 
 
@@ -214,23 +192,21 @@ class RunConfig:
     tensorboard: bool = True  # also write TensorBoard events (needs tensorboardX)
 
     def __post_init__(self) -> None:
-        _positive(self, ("iterations", "log_every", "eval_rollouts", "checkpoint_every"))
-        if self.eval_every < 0 or self.max_minutes < 0:
-            raise TrainError("'eval_every' and 'max_minutes' must be >= 0")
+        check(self, TrainError, ">= 1", "iterations", "log_every", "eval_rollouts")
+        check(self, TrainError, ">= 1", "checkpoint_every")
+        check(self, TrainError, ">= 0", "seed", "eval_every", "max_minutes")
 
 
 @dataclass(frozen=True)
 class PriorConfig:
     """One motion prior: MCAP clips (files or folders, relative to the working directory)."""
 
-    paths: tuple[str, ...] = ()
+    paths: tuple[str, ...]
     weight: float = 1.0  # share of the prior in the discriminator's dataset samples
 
     def __post_init__(self) -> None:
-        if not self.paths:
-            raise TrainError("a prior needs 'paths': MCAP clips or folders of clips")
-        if not self.weight > 0:
-            raise TrainError(f"a prior's 'weight' must be > 0, got {self.weight}")
+        check(self, TrainError, "non-empty", "paths")
+        check(self, TrainError, "> 0", "weight")
 
 
 @dataclass(frozen=True)
@@ -240,15 +216,7 @@ class TrainConfig:
     ppo: PpoConfig = PpoConfig()
     amp: AmpConfig = AmpConfig()
     run: RunConfig = RunConfig()
-    priors: dict[str, PriorConfig] = field(default_factory=dict)
-
-    TABLES: ClassVar[dict[str, type]] = {
-        "env": EnvConfig,
-        "reward": RewardConfig,
-        "ppo": PpoConfig,
-        "amp": AmpConfig,
-        "run": RunConfig,
-    }
+    priors: dict[str, PriorConfig] = field(default_factory=dict)  # [priors.NAME] tables
 
     @classmethod
     def from_toml(cls, path: Path) -> TrainConfig:
@@ -256,14 +224,7 @@ class TrainConfig:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<config>") -> TrainConfig:
-        values = build_tables(data, cls.TABLES, source, TrainError, others=("priors",))
-        priors = data.get("priors", {})
-        if not isinstance(priors, dict) or not all(isinstance(v, dict) for v in priors.values()):
-            raise TrainError(f"{source}: priors should be tables [priors.NAME]")
-        values["priors"] = {
-            name: _prior(table, f"{source}: [priors.{name}]") for name, table in priors.items()
-        }
-        return cls(**values)
+        return load(cls, data, source, TrainError)
 
     def select_priors(self, names: list[str]) -> TrainConfig:
         """The same config with only the named priors (`--priors`)."""
@@ -280,42 +241,4 @@ class TrainConfig:
 
     def to_toml(self) -> str:
         """The resolved config as TOML (what `from_toml` reads back)."""
-        lines = []
-        for name, table in self.to_dict().items():
-            if name == "priors":
-                for prior, values in table.items():
-                    lines.append(f"[priors.{prior}]")
-                    lines += [f"{k} = {_toml_value(v)}" for k, v in values.items()]
-                    lines.append("")
-                continue
-            lines.append(f"[{name}]")
-            lines += [f"{key} = {_toml_value(value)}" for key, value in table.items()]
-            lines.append("")
-        return "\n".join(lines)
-
-
-def _prior(table: dict[str, Any], where: str) -> PriorConfig:
-    if "paths" not in table:
-        raise TrainError(f"{where}: missing 'paths' (MCAP clips or folders)")
-    table = dict(table)
-    if isinstance(table["paths"], str):
-        table["paths"] = [table["paths"]]
-    try:
-        return PriorConfig(
-            paths=tuple(str(p) for p in table.pop("paths")),
-            **{k: float(v) if k == "weight" else v for k, v in table.items()},
-        )
-    except TypeError as exc:
-        raise TrainError(f"{where}: {exc}") from exc
-    except TrainError as exc:
-        raise TrainError(f"{where}: {exc}") from exc
-
-
-def _toml_value(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(value, list | tuple):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    return repr(value)
+        return to_toml(self.to_dict())

@@ -6,13 +6,13 @@ A recipe (trajopt/*.toml) has top-level keys of `TrajoptConfig` and the tables [
 
 from __future__ import annotations
 
-import math
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from motionkit.checks import check, refusal
 from motionkit.errors import TrajoptError
-from motionkit.tomlfile import build_dataclass, read_toml
+from motionkit.tomlfile import load, read_toml
 
 SCENARIOS = ("takeoff", "walk_to_fly", "flight_to_waypoint", "landing", "jet_jump")
 STARTS = ("stand", "hover")
@@ -29,9 +29,9 @@ class Scenario:
     name: str = "takeoff"
     knots: int = 40
     start: str = "stand"  # stand: the spec posture on the floor; hover: at `start_position`
-    start_position: tuple[float, ...] = (0.0, 0.0, 1.0)  # hover start only
+    start_position: tuple[float, float, float] = (0.0, 0.0, 1.0)  # hover start only
     end: str = "hover"  # hover: CoM at `target`, at rest; stand: on the floor below `target`
-    target: tuple[float, ...] = (0.0, 0.0, 1.0)  # stand end: only x, y count
+    target: tuple[float, float, float] = (0.0, 0.0, 1.0)  # stand end: only x, y count
     # One step before anything else (walk_to_fly): foot side ('' = none), length along the
     # forward direction [m], the knot fraction where it lands, swing clearance [m].
     step_foot: str = ""
@@ -44,6 +44,21 @@ class Scenario:
     apex_at: float = 0.5
     thrust_fraction: float = 1.0  # the jets' thrust limit as a fraction of T_max
     kind: str = ""  # dataset label; default: from the scenario name
+
+    def __post_init__(self) -> None:
+        from motionkit.dataset.trajectory import KINDS
+
+        check(self, TrajoptError, SCENARIOS, "name")
+        check(self, TrajoptError, STARTS, "start")
+        check(self, TrajoptError, ENDS, "end")
+        check(self, TrajoptError, ("", "left", "right"), "step_foot")
+        check(self, TrajoptError, ("", *KINDS), "kind")
+        if self.knots < 8:
+            raise refusal(TrajoptError, "knots", "at least 8", self.knots)
+        check(self, TrajoptError, "finite", "start_position", "target", "step_length")
+        check(self, TrajoptError, ">= 0", "step_clearance", "apex_clearance")
+        check(self, TrajoptError, "in (0, 1)", "step_land", "apex_at")
+        check(self, TrajoptError, "in (0, 1]", "thrust_fraction")
 
 
 @dataclass(frozen=True)
@@ -65,6 +80,9 @@ class Weights:
     # complementarity to zero without making the constraint itself degenerate.
     complementarity: float = 10.0
 
+    def __post_init__(self) -> None:
+        check(self, TrajoptError, ">= 0", *(item.name for item in fields(self)))
+
 
 @dataclass(frozen=True)
 class Contacts:
@@ -75,11 +93,19 @@ class Contacts:
     eps: tuple[float, ...] = (1e-2, 1e-6)
     slip_eps: float = 1e-4  # no slip while loaded: |f_z * step of the corner| <= this [m]
 
+    def __post_init__(self) -> None:
+        check(self, TrajoptError, "> 0", "mu", "eps", "slip_eps")
+        check(self, TrajoptError, "non-empty", "eps")
+
 
 @dataclass(frozen=True)
 class Jets:
     model: str = "p250"  # 'p250': second-order model with throttle input; 'rate': Tdot input
     max_rate: float = 300.0  # N/s, the bound on Tdot of the 'rate' model
+
+    def __post_init__(self) -> None:
+        check(self, TrajoptError, ("p250", "rate"), "model")
+        check(self, TrajoptError, "> 0", "max_rate")
 
 
 @dataclass(frozen=True)
@@ -100,6 +126,17 @@ class Solver:
     # default here, 'loqo' in walk_to_fly.toml (why: there). Warm steps always use the default.
     cold_mu_oracle: str = "quality-function"
     options: dict[str, Any] = field(default_factory=dict)  # further IPOPT options, verbatim
+
+    def __post_init__(self) -> None:
+        check(self, TrajoptError, ("exact", "limited-memory"), "hessian")
+        check(self, TrajoptError, ("monotone", "adaptive"), "mu_strategy")
+        check(self, TrajoptError, ORACLES, "cold_mu_oracle")
+        check(self, TrajoptError, ">= 0", "dt", "print_level")
+        check(self, TrajoptError, "> 0", "dt_min", "dt_max", "max_joint_velocity", "tol")
+        check(self, TrajoptError, "> 0", "constr_viol_tol", "max_cpu_time")
+        check(self, TrajoptError, ">= 1", "max_iter")
+        if self.dt_min > self.dt_max:
+            raise refusal(TrajoptError, "dt_min", f"<= dt_max ({self.dt_max})", self.dt_min)
 
 
 @dataclass(frozen=True)
@@ -127,6 +164,10 @@ class Replay:
     yaw_weight: float = 3.0
     max_base_error: float = 0.1  # m: the largest stabilised base error of a trackable plan
 
+    def __post_init__(self) -> None:
+        check(self, TrajoptError, ">= 0", *GAINS)
+        check(self, TrajoptError, "> 0", "yaw_weight", "max_base_error")
+
 
 @dataclass(frozen=True)
 class TrajoptConfig:
@@ -138,104 +179,26 @@ class TrajoptConfig:
     solver: Solver = Solver()
     replay: Replay = Replay()
 
+    def __post_init__(self) -> None:
+        check(self, TrajoptError, "> 0", "rate")
+
     @classmethod
     def from_toml(cls, path: Path) -> TrajoptConfig:
         return cls.from_dict(read_toml(path, "config", TrajoptError), str(path))
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<config>") -> TrajoptConfig:
-        nested = {f.name: type(getattr(cls(), f.name)) for f in fields(cls) if f.name != "rate"}
-        values = {
-            key: _build(nested[key], value, f"{source}: [{key}]") if key in nested else value
-            for key, value in data.items()
-        }
-        config = _build(cls, values, source)
-        config.validate(source)
-        return config
+        return load(cls, data, source, TrajoptError)
 
     def with_scenario(self, **changes: Any) -> TrajoptConfig:
         """The same config with some scenario fields replaced (CLI overrides)."""
-        changes = {k: tuple(v) if isinstance(v, list) else v for k, v in changes.items()}
-        config = replace(self, scenario=replace(self.scenario, **changes))
-        config.validate("<command line>")
-        return config
+        scenario = asdict(self.scenario) | changes
+        return TrajoptConfig.from_dict(self.to_dict() | {"scenario": scenario}, "<command line>")
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
-
-    def validate(self, source: str) -> None:
-        s, solver = self.scenario, self.solver
-
-        def bad(field: str, expected: str, value: object) -> TrajoptError:
-            return TrajoptError(f"{source}: '{field}' should be {expected}, got {value!r}")
-
-        for name, value in _numbers(self):
-            if not math.isfinite(value):
-                raise bad(name, "a finite number", value)
-        if s.name not in SCENARIOS:
-            raise bad("scenario.name", f"one of {', '.join(SCENARIOS)}", s.name)
-        if s.start not in STARTS:
-            raise bad("scenario.start", f"one of {', '.join(STARTS)}", s.start)
-        if s.end not in ENDS:
-            raise bad("scenario.end", f"one of {', '.join(ENDS)}", s.end)
-        if s.knots < 8:
-            raise bad("scenario.knots", "at least 8", s.knots)
-        for name in ("target", "start_position"):
-            if len(getattr(s, name)) != 3:
-                raise bad(f"scenario.{name}", "3 numbers [m]", getattr(s, name))
-        if s.step_foot not in ("", "left", "right"):
-            raise bad("scenario.step_foot", "'', 'left' or 'right'", s.step_foot)
-        if not 0 < s.thrust_fraction <= 1:
-            raise bad("scenario.thrust_fraction", "in (0, 1]", s.thrust_fraction)
-        if not (0 < s.step_land < 1 and 0 < s.apex_at < 1):
-            raise bad("scenario.step_land / apex_at", "fractions in (0, 1)", s)
-        if self.jets.model not in ("p250", "rate"):
-            raise bad("jets.model", "'p250' or 'rate'", self.jets.model)
-        if solver.cold_mu_oracle not in ORACLES:
-            oracle = solver.cold_mu_oracle
-            raise bad("solver.cold_mu_oracle", f"one of {', '.join(ORACLES)}", oracle)
-        if solver.hessian not in ("exact", "limited-memory"):
-            raise bad("solver.hessian", "'exact' or 'limited-memory'", solver.hessian)
-        if not 0 < solver.dt_min <= solver.dt_max:
-            raise bad("solver.dt_min/dt_max", "0 < dt_min <= dt_max", solver)
-        if solver.dt < 0:
-            raise bad("solver.dt", ">= 0 s", solver.dt)
-        if not self.contacts.eps or min(self.contacts.eps) <= 0:
-            raise bad("contacts.eps", "a non-empty list of positive numbers", self.contacts.eps)
-        if self.rate <= 0:
-            raise bad("rate", "> 0 Hz", self.rate)
-        for name in GAINS:
-            if getattr(self.replay, name) < 0:
-                raise bad(f"replay.{name}", "a gain >= 0 (0: off)", getattr(self.replay, name))
-        if self.replay.max_base_error <= 0:
-            raise bad("replay.max_base_error", "> 0 m", self.replay.max_base_error)
-        if self.replay.yaw_weight <= 0:
-            raise bad("replay.yaw_weight", "> 0", self.replay.yaw_weight)
 
     @property
     def kind(self) -> str:
         default = {"walk_to_fly": "takeoff", "flight_to_waypoint": "flight", "jet_jump": "jump"}
         return self.scenario.kind or default.get(self.scenario.name, self.scenario.name)
-
-
-def _numbers(config: TrajoptConfig) -> list[tuple[str, float]]:
-    """Every number of the config's tables (lists item by item) with its dotted field name."""
-    found = [("rate", config.rate)]
-    for table in fields(config):
-        values = getattr(config, table.name)
-        if not hasattr(values, "__dataclass_fields__"):
-            continue
-        for key, value in asdict(values).items():
-            items = value if isinstance(value, tuple) else (value,)
-            found += [
-                (f"{table.name}.{key}", item)
-                for item in items
-                if isinstance(item, float | int) and not isinstance(item, bool)
-            ]
-    return found
-
-
-def _build(cls: type, values: Any, where: str) -> Any:
-    if not isinstance(values, dict):
-        raise TrajoptError(f"{where}: expected a table, got {values!r}")
-    return build_dataclass(cls, values, where, TrajoptError)

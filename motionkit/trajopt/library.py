@@ -11,16 +11,14 @@ combination). Every solve is one clip, named `name` plus its target. IPOPT is qu
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
+from motionkit.checks import check, refusal
 from motionkit.errors import TrajoptError
-from motionkit.tomlfile import read_toml
+from motionkit.tomlfile import load, read_toml
 from motionkit.trajopt.config import TrajoptConfig
-
-TABLES = ("scenario", "weights", "contacts", "jets", "solver", "replay")
-ENTRY_KEYS = ("name", "recipe", "targets", "grid", "rate", *TABLES)
 
 
 @dataclass(frozen=True)
@@ -28,6 +26,34 @@ class LibrarySolve:
     name: str  # the clip's file stem
     entry: str  # the library entry it comes from
     config: TrajoptConfig
+
+
+@dataclass(frozen=True)
+class Entry:
+    """The keys of an [[entries]] table that are not a recipe's."""
+
+    name: str
+    recipe: str = ""  # none: the built-in defaults
+    targets: tuple[tuple[float, float, float], ...] = ()
+    grid: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]] = ((), (), ())
+
+    def __post_init__(self) -> None:
+        if not self.name.isidentifier():
+            raise refusal(TrajoptError, "name", "a word (letters, digits, _)", self.name)
+        if bool(self.targets) == any(self.grid):
+            raise TrajoptError("give either 'targets' (a list of [x, y, z]) or 'grid'")
+        if any(self.grid) and not all(self.grid):
+            raise refusal(TrajoptError, "grid", "three non-empty lists, one per axis", self.grid)
+        check(self, TrajoptError, "finite", "targets", "grid")
+
+    @property
+    def points(self) -> list[tuple[float, ...]]:
+        return list(self.targets or itertools.product(*self.grid))
+
+
+ENTRY_KEYS = {item.name for item in fields(Entry)}
+KNOWN = sorted(ENTRY_KEYS | {item.name for item in fields(TrajoptConfig)})  # those of a recipe
+QUIET = {"solver": {"print_level": 0}}  # unless the recipe or the entry sets it
 
 
 def clip_name(entry: str, target: tuple[float, ...]) -> str:
@@ -56,68 +82,44 @@ def read_library(path: Path) -> list[LibrarySolve]:
     return solves
 
 
-def _entry(entry: Any, index: int, path: Path) -> list[LibrarySolve]:
-    where = f"{path}: entries[{index}]"
-    if not isinstance(entry, dict):
-        raise TrajoptError(f"{where}: expected a table, got {entry!r}")
-    name = entry.get("name")
-    if not isinstance(name, str) or not name.isidentifier():
-        raise TrajoptError(f"{where}: 'name' should be a word (letters, digits, _), got {name!r}")
-    where = f"{path}: entry '{name}'"
-    unknown = sorted(set(entry) - set(ENTRY_KEYS))
+def _entry(table: Any, index: int, path: Path) -> list[LibrarySolve]:
+    named = isinstance(table, dict) and isinstance(table.get("name"), str)
+    where = f"{path}: entry '{table['name']}'" if named else f"{path}: entries[{index}]"
+    if not isinstance(table, dict):
+        raise TrajoptError(f"{where}: should be a table, got {table!r}")
+    unknown = sorted(set(table) - set(KNOWN))
     if unknown:
-        raise TrajoptError(f"{where}: unknown keys {unknown}; known: {sorted(ENTRY_KEYS)}")
-    base = _recipe(entry.get("recipe"), path, where)
-    base.setdefault("solver", {}).setdefault("print_level", 0)
-    for key in ("rate", *TABLES):
-        if key not in entry:
-            continue
-        if key != "rate" and not isinstance(entry[key], dict):
-            raise TrajoptError(f"{where}: '{key}' should be a table")
-        base[key] = entry[key] if key == "rate" else {**base.get(key, {}), **entry[key]}
-    solves = []
-    for target in _targets(entry, where):
-        data = base | {"scenario": {**base.get("scenario", {}), "target": list(target)}}
-        config = TrajoptConfig.from_dict(data, where)
-        solves.append(LibrarySolve(clip_name(name, target), name, config))
-    return solves
+        raise TrajoptError(f"{where}: unknown keys {unknown}; known: {KNOWN}")
+    entry = load(Entry, {k: v for k, v in table.items() if k in ENTRY_KEYS}, where, TrajoptError)
+    changes = {k: v for k, v in table.items() if k not in ENTRY_KEYS}
+    data = _merge(_merge(QUIET, _recipe(entry.recipe, path, where)), changes)
+    config = TrajoptConfig.from_dict(data, where)
+    return [
+        LibrarySolve(
+            clip_name(entry.name, target),
+            entry.name,
+            replace(config, scenario=replace(config.scenario, target=target)),
+        )
+        for target in entry.points
+    ]
 
 
-def _recipe(recipe: Any, library: Path, where: str) -> dict[str, Any]:
+def _merge(base: dict[str, Any], changes: dict[str, Any]) -> dict[str, Any]:
+    """`base` with the tables of `changes` merged into its own key by key, its other keys
+    replaced."""
+    return base | {
+        key: base[key] | value
+        if isinstance(value, dict) and isinstance(base.get(key), dict)
+        else value
+        for key, value in changes.items()
+    }
+
+
+def _recipe(recipe: str, library: Path, where: str) -> dict[str, Any]:
     """The base recipe's tables (an empty dict: the defaults)."""
-    if recipe is None:
+    if not recipe:
         return {}
-    if not isinstance(recipe, str):
-        raise TrajoptError(f"{where}: 'recipe' should be a recipe name or path, got {recipe!r}")
     file = library.parent / (recipe if recipe.endswith(".toml") else f"{recipe}.toml")
     if not file.is_file():
         raise TrajoptError(f"{where}: recipe '{recipe}' not found (no file {file})")
     return read_toml(file, "recipe", TrajoptError)
-
-
-def _targets(entry: dict[str, Any], where: str) -> list[tuple[float, float, float]]:
-    if "targets" in entry and "grid" in entry:
-        raise TrajoptError(f"{where}: has both 'targets' and 'grid'; give one")
-    if "targets" not in entry and "grid" not in entry:
-        raise TrajoptError(f"{where}: no targets: give 'targets' (a list of [x, y, z]) or 'grid'")
-    if "targets" in entry:
-        targets, field = entry["targets"], "targets"
-    else:
-        grid, field = entry["grid"], "grid"
-        if not (isinstance(grid, list) and len(grid) == 3 and all(_numbers(a) for a in grid)):
-            raise TrajoptError(f"{where}: 'grid' should be three lists of numbers, got {grid!r}")
-        targets = [list(t) for t in itertools.product(*grid)]
-    if not isinstance(targets, list) or not targets:
-        raise TrajoptError(f"{where}: '{field}' should be a non-empty list, got {targets!r}")
-    for target in targets:
-        if not (isinstance(target, list) and len(target) == 3 and _numbers(target)):
-            raise TrajoptError(f"{where}: '{field}' should hold [x, y, z] lists, got {target!r}")
-    return [(float(x), float(y), float(z)) for x, y, z in targets]
-
-
-def _numbers(values: Any) -> bool:
-    return (
-        isinstance(values, list)
-        and bool(values)
-        and all(isinstance(v, int | float) and not isinstance(v, bool) for v in values)
-    )

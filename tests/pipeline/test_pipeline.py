@@ -80,7 +80,7 @@ def test_recipe_errors_name_the_key(tmp_path: Path, capsys: pytest.CaptureFixtur
         PipelineConfig.from_toml(recipe)
     recipe.write_text("[trajectory]\n")
     assert main(["pipeline", "--config", str(recipe), "--out", str(tmp_path / "o")]) == 2
-    assert "unknown tables ['trajectory']" in capsys.readouterr().err
+    assert "unknown keys ['trajectory']" in capsys.readouterr().err
     with pytest.raises(SystemExit) as exit:
         main(["pipeline", "--config", str(tmp_path / "none.toml")])
     assert exit.value.code == 2

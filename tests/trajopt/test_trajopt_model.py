@@ -37,7 +37,7 @@ def test_p250_steady_states_match_public_figures() -> None:
 def test_config_rejects_unknown_keys_and_bad_values() -> None:
     with pytest.raises(TrajoptError, match="unknown keys"):
         TrajoptConfig.from_dict({"scenario": {"heigth": 2.0}})
-    with pytest.raises(TrajoptError, match=r"scenario\.name"):
+    with pytest.raises(TrajoptError, match=r"\[scenario\]: 'name' should be one of"):
         TrajoptConfig.from_dict({"scenario": {"name": "moonwalk"}})
     with pytest.raises(TrajoptError, match="knots"):
         TrajoptConfig().with_scenario(knots=3)
