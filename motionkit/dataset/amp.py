@@ -2,7 +2,9 @@
 
 chi_t = [base orientation (w, x, y, z), base linear velocity (base frame), base angular velocity
 (base frame), joint positions, joint velocities, end-effector positions relative to the base in
-the base frame (soles, then hands: iRonCub's arm jets), thrust per jet [N]].
+the base frame (soles, then hands: iRonCub's arm jets), thrust per jet [N]]: `FeatureLayout`,
+the one definition of these blocks, their order and sizes, shared with the simulator's features
+(`motionkit.train.amp`) and observation (`motionkit.train.env`).
 
 The orientation is heading-free by default: the yaw of the robot's forward axis is removed, so
 that walking north and walking east look alike to the discriminator (the policy follows
@@ -11,8 +13,10 @@ waypoints in every direction). `heading_free=False` keeps the world orientation.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from types import ModuleType
+from typing import Any
 
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
@@ -24,16 +28,64 @@ from motionkit.robot.geometry import from_rotation, quat_rotate_inverse, to_rota
 from motionkit.robot.kinematics import frame_poses
 
 
+@dataclass(frozen=True)
+class FeatureLayout:
+    """The blocks of chi in order, each with the names of its columns."""
+
+    blocks: tuple[tuple[str, tuple[str, ...]], ...]
+
+    @classmethod
+    def of(cls, robot: Robot) -> FeatureLayout:
+        def named(block: str, parts: Sequence[str]) -> tuple[str, tuple[str, ...]]:
+            return block, tuple(f"{block}.{part}" for part in parts)
+
+        effectors = tuple(f"{frame}.{c}" for frame in robot.spec.end_effectors for c in "xyz")
+        return cls(
+            (
+                named("base_orientation", "wxyz"),
+                named("base_linear_velocity", "xyz"),
+                named("base_angular_velocity", "xyz"),
+                named("joint_position", robot.joint_names),
+                named("joint_velocity", robot.joint_names),
+                ("end_effectors", effectors),
+                named("thrust", [jet.name for jet in robot.spec.jets]),
+            )
+        )
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(name for _, columns in self.blocks for name in columns)
+
+    @property
+    def size(self) -> int:
+        return sum(len(columns) for _, columns in self.blocks)
+
+    def slice(self, block: str) -> slice:
+        """The columns of `block` in chi."""
+        start = 0
+        for name, columns in self.blocks:
+            if name == block:
+                return slice(start, start + len(columns))
+            start += len(columns)
+        raise KeyError(block)
+
+    def join(self, parts: Mapping[str, Any], xp: ModuleType = np) -> Any:
+        """chi from its blocks (arrays whose last axis is the block's columns), concatenated in
+        order along the last axis by `xp` (numpy or jax.numpy)."""
+        order = [name for name, _ in self.blocks]
+        if set(parts) != set(order):
+            raise ValueError(f"feature blocks {sorted(parts)}, the layout has {order}")
+        for name, columns in self.blocks:
+            if parts[name].shape[-1] != len(columns):
+                raise ValueError(
+                    f"feature block {name} has {parts[name].shape[-1]} columns, not {len(columns)}"
+                )
+        return xp.concatenate([parts[name] for name in order], axis=-1)
+
+
 def feature_names(robot: Robot) -> list[str]:
     """One name per column of chi, in order."""
-    names = [f"base_orientation.{c}" for c in "wxyz"]
-    names += [f"base_linear_velocity.{c}" for c in "xyz"]
-    names += [f"base_angular_velocity.{c}" for c in "xyz"]
-    names += [f"joint_position.{j}" for j in robot.joint_names]
-    names += [f"joint_velocity.{j}" for j in robot.joint_names]
-    names += [f"{frame}.{c}" for frame in robot.spec.end_effectors for c in "xyz"]
-    names += [f"thrust.{jet.name}" for jet in robot.spec.jets]
-    return names
+    return list(FeatureLayout.of(robot).names)
 
 
 def remove_heading(robot: Robot, quats: np.ndarray) -> np.ndarray:
@@ -55,17 +107,18 @@ def amp_features(trajectory: Trajectory, robot: Robot, *, heading_free: bool = T
     poses = frame_poses(
         robot.model, trajectory.joint_names, trajectory.joint_positions, robot.spec.end_effectors
     )
-    effectors = poses[:, :, :3, 3].reshape(trajectory.frames, -1)
-    columns = [
-        orientation,
-        linear,
-        angular,
-        trajectory.joint_positions,
-        trajectory.joint_velocities,
-        effectors,
-        trajectory.thrust,
-    ]
-    return np.concatenate(columns, axis=1).astype(np.float32)
+    chi = FeatureLayout.of(robot).join(
+        {
+            "base_orientation": orientation,
+            "base_linear_velocity": linear,
+            "base_angular_velocity": angular,
+            "joint_position": trajectory.joint_positions,
+            "joint_velocity": trajectory.joint_velocities,
+            "end_effectors": poses[:, :, :3, 3].reshape(trajectory.frames, -1),
+            "thrust": trajectory.thrust,
+        }
+    )
+    return chi.astype(np.float32)
 
 
 def resample(trajectory: Trajectory, rate: float) -> Trajectory:

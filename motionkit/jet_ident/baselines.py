@@ -20,7 +20,8 @@ from scipy.signal import savgol_filter
 
 from motionkit.errors import JetIdentError
 from motionkit.jet_ident.benchlog import BenchLog
-from motionkit.jet_ident.p250 import THRUST_SCALE, regressors, simulate, thrust_acceleration
+from motionkit.jet_ident.integrate import simulate
+from motionkit.jet_ident.p250 import THRUST_SCALE, regressors, thrust_acceleration
 
 
 @dataclass(frozen=True)

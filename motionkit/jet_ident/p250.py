@@ -1,24 +1,24 @@
-"""The published second-order JetCat P250 model and its fine integration.
+"""The published second-order JetCat P250 model: thrust T [N], throttle u [%].
 
 In normalised variables t = (T - 108.309) / 65.793, td = Tdot / 65.793 and
-v = (u - 47.333) / 31.483 (thrust T [N], throttle u [%]):
+v = (u - 47.333) / 31.483:
 
     Tddot / 65.793 = f + g (v + c12 v^2)
     f = c0 + c1 t + c2 td + c3 t td + c4 t^2 + c5 td^2
     g = c6 + c7 t + c8 td + c9 t td + c10 t^2 + c11 td^2
 
 With the public coefficients the engine idles at 16.0 N (u = 0) and gives 222.1 N at full
-throttle; the 63 % rise time from idle to full is 1.39 s. The same functions integrate any
-coefficient vector (the grey-box baseline fits one).
+throttle (public figures: 10-16 N idle, 222-237 N full); the 63 % rise time from idle to full
+is 1.39 s. The functions take any coefficient vector (the grey-box baseline fits one) and use
+plain arithmetic only, so that they work on floats, numpy and JAX arrays and CasADi symbols
+(trajopt's dynamics). At rest (Tdot = 0) the model is quadratic in t and in v, so its steady
+states are closed-form roots; `motionkit.jet_ident.integrate` integrates it in JAX.
 """
 
 from __future__ import annotations
 
-from functools import partial
 from typing import Any
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
 # c0..c12 as published (c0-c5: f, c6-c11: g, c12: the throttle's square).
@@ -29,12 +29,12 @@ P250_COEFFS = np.array(
         -0.00783,
     ]
 )
-THRUST_OFFSET, THRUST_SCALE = 108.309, 65.793  # N
+THRUST_OFFSET, THRUST_SCALE = 108.309, 65.793  # N (and N/s for Tdot)
 THROTTLE_OFFSET, THROTTLE_SCALE = 47.333, 31.483  # %
 
 
 def regressors(thrust: Any, rate: Any, throttle: Any) -> tuple[list[Any], Any]:
-    """The six polynomial terms shared by f and g, and v: arrays of any shape (numpy or jax)."""
+    """The six polynomial terms shared by f and g, and v."""
     t = (thrust - THRUST_OFFSET) / THRUST_SCALE
     td = rate / THRUST_SCALE
     v = (throttle - THROTTLE_OFFSET) / THROTTLE_SCALE
@@ -42,66 +42,41 @@ def regressors(thrust: Any, rate: Any, throttle: Any) -> tuple[list[Any], Any]:
     return terms, v
 
 
-def thrust_acceleration(coeffs: Any, thrust: Any, rate: Any, throttle: Any) -> Any:
-    """Tddot [N/s^2] at thrust [N], thrust rate [N/s] and throttle [%]."""
+def _f_g(coeffs: Any, thrust: Any, rate: Any, throttle: Any) -> tuple[Any, Any, Any]:
     terms, v = regressors(thrust, rate, throttle)
     f = sum(coeffs[i] * terms[i] for i in range(6))
     g = sum(coeffs[6 + i] * terms[i] for i in range(6))
+    return f, g, v
+
+
+def thrust_acceleration(coeffs: Any, thrust: Any, rate: Any, throttle: Any) -> Any:
+    """Tddot [N/s^2] at thrust [N], thrust rate [N/s] and throttle [%]."""
+    f, g, v = _f_g(coeffs, thrust, rate, throttle)
     return THRUST_SCALE * (f + g * (v + coeffs[12] * v * v))
 
 
-@partial(jax.jit, static_argnames="substeps")
-def _integrate(
-    coeffs: jax.Array, throttle: jax.Array, dt: jax.Array, start: jax.Array, substeps: int
-) -> jax.Array:
-    h = dt / substeps
-
-    def derivative(state: jax.Array, u: jax.Array) -> jax.Array:
-        return jnp.stack([state[1], thrust_acceleration(coeffs, state[0], state[1], u)])
-
-    def rk4(state: jax.Array, u: jax.Array) -> tuple[jax.Array, None]:
-        k1 = derivative(state, u)
-        k2 = derivative(state + 0.5 * h * k1, u)
-        k3 = derivative(state + 0.5 * h * k2, u)
-        k4 = derivative(state + h * k3, u)
-        return state + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4), None
-
-    def sample(state: jax.Array, u: jax.Array) -> tuple[jax.Array, jax.Array]:
-        state, _ = jax.lax.scan(rk4, state, u, length=substeps)
-        return state, state
-
-    u_fine = jnp.broadcast_to(throttle[:, None], (throttle.shape[0], substeps))
-    _, states = jax.lax.scan(sample, start, u_fine)
-    return states
-
-
-def simulate(
-    coeffs: np.ndarray,
-    throttle: np.ndarray,
-    dt: float,
-    thrust0: float,
-    rate0: float = 0.0,
-    substeps: int = 10,
-) -> np.ndarray:
-    """States (T, Tdot) after each sample: throttle[k] is held during sample k (zero-order hold)
-    and integrated by `substeps` RK4 steps. Returns an array (len(throttle), 2)."""
-    states = _integrate(
-        jnp.asarray(coeffs, jnp.float32),
-        jnp.asarray(throttle, jnp.float32),
-        jnp.float32(dt),
-        jnp.array([thrust0, rate0], jnp.float32),
-        substeps,
-    )
-    return np.asarray(states, dtype=np.float64)
-
-
 def steady_thrust(coeffs: np.ndarray, throttle: np.ndarray | float) -> np.ndarray:
-    """The equilibrium thrust [N] at each throttle [%]: the root of Tddot(T, 0, u) in 0-400 N
-    where the acceleration turns from positive to negative (bisection)."""
-    u = np.asarray(throttle, dtype=float)
-    low, high = np.zeros_like(u), np.full_like(u, 400.0)
-    for _ in range(60):
-        middle = 0.5 * (low + high)
-        positive = thrust_acceleration(coeffs, middle, 0.0, u) > 0
-        low, high = np.where(positive, middle, low), np.where(positive, high, middle)
-    return 0.5 * (low + high)
+    """The stable equilibrium thrust [N] at each throttle [%] (NaN where there is none).
+
+    At rest Tddot / 65.793 = a t^2 + b t + c with w = v + c12 v^2, a = c4 + c10 w,
+    b = c1 + c7 w, c = c0 + c6 w; the stable root is the one where Tddot falls with t,
+    t = (-b - sqrt(b^2 - 4ac)) / 2a, written as 2c / (sqrt(b^2 - 4ac) - b) so that a -> 0
+    (a linear model) is no special case.
+    """
+    v = (np.asarray(throttle, dtype=float) - THROTTLE_OFFSET) / THROTTLE_SCALE
+    w = v + coeffs[12] * v * v
+    a, b, c = coeffs[4] + coeffs[10] * w, coeffs[1] + coeffs[7] * w, coeffs[0] + coeffs[6] * w
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = 2 * c / (np.sqrt(b * b - 4 * a * c) - b)
+    return THRUST_OFFSET + THRUST_SCALE * t
+
+
+def steady_throttle(coeffs: np.ndarray, thrust: np.ndarray | float) -> np.ndarray:
+    """The throttle [%] that holds each thrust [N] steady: 0 % at or below idle, 100 % at or
+    above full thrust. At rest f + g w = 0 gives w = -f / g, and v + c12 v^2 = w its root
+    nearest w, v = 2w / (1 + sqrt(1 + 4 c12 w))."""
+    idle, full = steady_thrust(coeffs, np.array([0.0, 100.0]))
+    f, g, _ = _f_g(coeffs, np.clip(thrust, idle, full), 0.0, THROTTLE_OFFSET)
+    w = -f / g
+    v = 2 * w / (1 + np.sqrt(1 + 4 * coeffs[12] * w))
+    return np.clip(THROTTLE_OFFSET + THROTTLE_SCALE * v, 0.0, 100.0)

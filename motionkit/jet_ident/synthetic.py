@@ -26,7 +26,8 @@ from scipy.signal import lfilter
 
 from motionkit.jet_ident.benchlog import BenchLog
 from motionkit.jet_ident.config import BenchConfig
-from motionkit.jet_ident.p250 import P250_COEFFS, simulate, steady_thrust
+from motionkit.jet_ident.integrate import simulate
+from motionkit.jet_ident.p250 import P250_COEFFS, steady_thrust
 
 LEVELS = (10.0, 30.0, 50.0, 70.0, 90.0)  # % throttle the profile moves around
 

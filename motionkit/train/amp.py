@@ -1,9 +1,8 @@
 """Adversarial motion priors: the AMP features of an MJX state, the discriminator and its loss,
 the replay buffer of policy transitions and the dataset (prior) transitions.
 
-The features are those of `motionkit.dataset.amp_features` (heading-free base orientation,
-base-frame velocities, joints, end effectors relative to the base in the base frame, thrust),
-so that pairs from MCAP priors and from the simulator are comparable.
+The features are those of `motionkit.dataset.amp_features`, in its `FeatureLayout`, so that
+pairs from MCAP priors and from the simulator are comparable.
 """
 
 from __future__ import annotations
@@ -16,10 +15,12 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
+from motionkit.dataset.amp import FeatureLayout
 from motionkit.train.spatial import quat_to_matrix, remove_heading
 
 
 def amp_features(
+    layout: FeatureLayout,
     quat: jax.Array,
     linear_world: jax.Array,
     angular_base: jax.Array,
@@ -32,18 +33,16 @@ def amp_features(
     """chi of one state: quat (4,) of the base in the world, its linear velocity in the world,
     its angular velocity in the base frame (MuJoCo's free-joint convention), joints (J,), end
     effectors relative to the base in the base frame (E, 3), thrust (jets,) [N]."""
-    rotation = quat_to_matrix(quat)
-    return jnp.concatenate(
-        [
-            remove_heading(quat, forward),
-            rotation.T @ linear_world,
-            angular_base,
-            joint_positions,
-            joint_velocities,
-            effectors_base.ravel(),
-            thrust,
-        ]
-    )
+    parts = {
+        "base_orientation": remove_heading(quat, forward),
+        "base_linear_velocity": quat_to_matrix(quat).T @ linear_world,
+        "base_angular_velocity": angular_base,
+        "joint_position": joint_positions,
+        "joint_velocity": joint_velocities,
+        "end_effectors": effectors_base.ravel(),
+        "thrust": thrust,
+    }
+    return layout.join(parts, jnp)
 
 
 class Discriminator(nn.Module):

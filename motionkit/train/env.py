@@ -11,11 +11,12 @@ Resets: with probability `reset_from_prior` an episode starts in a frame of the 
 a random heading, its velocities, joints and thrust, and the jet model resting at that thrust;
 a start with both soles off the ground gets an air waypoint. Otherwise it starts standing.
 
-Observation (all in the base's heading frame or base frame):
-    heading-free base orientation (4), base linear and angular velocity (3 + 3), joint
-    positions relative to standing (23) and velocities (23), end effectors relative to the base
-    (4 x 3), thrust / T_max (4), height map (7 x 9 terrain heights at 0.3 m spacing relative to
-    the base; on flat ground the single base height), waypoint relative to the base (3).
+Observation (all in the base's heading frame or base frame): the blocks of the AMP features
+(`motionkit.dataset.amp.FeatureLayout`: heading-free base orientation (4), base linear and
+angular velocity (3 + 3), joint positions (23, here relative to standing) and velocities (23),
+end effectors relative to the base (4 x 3), thrust (4, here / T_max)), then the height map
+(7 x 9 terrain heights at 0.3 m spacing relative to the base; on flat ground the single base
+height) and the waypoint relative to the base (3).
 The AMP features are those of `motionkit.dataset.amp_features` with the thrust as
 `Jets.feature` sees it (above idle, per T_max).
 An episode ends when the base is lower than `min_base_height` above the terrain (a fall), when
@@ -35,6 +36,7 @@ import mujoco
 import numpy as np
 from flax import struct
 
+from motionkit.dataset.amp import FeatureLayout
 from motionkit.jet_ident.step import LSTMThrust
 from motionkit.robot import Robot
 from motionkit.train import terrain as terrain_lib
@@ -44,7 +46,7 @@ from motionkit.train.config import EnvConfig, RewardConfig
 from motionkit.train.jets import Jets
 from motionkit.train.mjx import mjx
 from motionkit.train.rewards import task_reward, task_terms
-from motionkit.train.spatial import facing_angle, quat_mul, quat_to_matrix, remove_heading
+from motionkit.train.spatial import facing_angle, quat_mul, quat_to_matrix
 
 HEIGHT_MAP = (7, 9)  # points along the facing direction x across it
 HEIGHT_CELL = 0.3  # m
@@ -177,21 +179,22 @@ class Env:
         grid_y = (np.arange(HEIGHT_MAP[1]) - (HEIGHT_MAP[1] - 1) / 2) * HEIGHT_CELL
         self.height_points = jnp.asarray(np.stack(np.meshgrid(grid_x, grid_y, indexing="ij"), -1))
         heights = 1 if flat else HEIGHT_MAP[0] * HEIGHT_MAP[1]
-        self.obs_size = 10 + 2 * joints + 3 * len(spec.end_effectors) + self.num_jets + heights + 3
-        self.chi_size = 10 + 2 * joints + 3 * len(spec.end_effectors) + self.num_jets
+        self.layout = FeatureLayout.of(robot)
+        self.chi_size = self.layout.size
+        self.obs_size = self.layout.size + heights + 3
         self.prior = None if prior is None else self._with_thrust_features(prior)
 
     def _with_thrust_features(self, prior: PriorData) -> PriorData:
-        """The prior with its thrust columns (the last, one per jet) as `Jets.feature`."""
+        """The prior with its thrust columns as `Jets.feature`."""
         if prior.current.shape[1] != self.chi_size:
             raise ValueError(
                 f"prior features have {prior.current.shape[1]} columns, the environment "
                 f"{self.chi_size}"
             )
-        jets = self.num_jets
+        thrust = self.layout.slice("thrust")
 
         def convert(chi: jax.Array) -> jax.Array:
-            return chi.at[:, -jets:].set(self.jets.feature(chi[:, -jets:]))
+            return chi.at[:, thrust].set(self.jets.feature(chi[:, thrust]))
 
         return prior.replace(current=convert(prior.current), following=convert(prior.following))
 
@@ -210,36 +213,29 @@ class Env:
         points = base[:2] + self.height_points @ turn.T
         return (terrain_lib.height_at(self.terrain, points) - base[2]).ravel()
 
-    def observe(self, data: mjx.Data, thrust: jax.Array, target: jax.Array) -> jax.Array:
-        quat, base = data.qpos[3:7], data.qpos[:3]
-        rotation = quat_to_matrix(quat)
-        return jnp.concatenate(
-            [
-                remove_heading(quat, self.forward),
-                rotation.T @ data.qvel[:3],
-                data.qvel[3:6],
-                data.qpos[7:] - self.default_q,
-                data.qvel[6:],
-                self._effectors(data).ravel(),
-                thrust / self.t_max,
-                self._heights(data),
-                rotation.T @ (target - base),
-            ]
+    def _in_layout(self, data: mjx.Data, joints: jax.Array, thrust: jax.Array) -> jax.Array:
+        """The state in the AMP feature layout, with these joint and thrust columns."""
+        return amp_features(
+            self.layout,
+            data.qpos[3:7],
+            data.qvel[:3],
+            data.qvel[3:6],
+            joints,
+            data.qvel[6:],
+            self._effectors(data),
+            thrust,
+            self.forward,
         )
+
+    def observe(self, data: mjx.Data, thrust: jax.Array, target: jax.Array) -> jax.Array:
+        state = self._in_layout(data, data.qpos[7:] - self.default_q, thrust / self.t_max)
+        waypoint = quat_to_matrix(data.qpos[3:7]).T @ (target - data.qpos[:3])
+        return jnp.concatenate([state, self._heights(data), waypoint])
 
     def features(self, data: mjx.Data, thrust: jax.Array) -> jax.Array:
         """The AMP features chi of the state (as motionkit.dataset.amp_features, the thrust as
         `Jets.feature`)."""
-        return amp_features(
-            data.qpos[3:7],
-            data.qvel[:3],
-            data.qvel[3:6],
-            data.qpos[7:],
-            data.qvel[6:],
-            self._effectors(data),
-            self.jets.feature(thrust),
-            self.forward,
-        )
+        return self._in_layout(data, data.qpos[7:], self.jets.feature(thrust))
 
     def feet_down(self, data: mjx.Data) -> jax.Array:
         """(feet,) whether each sole is within AIRBORNE_CLEARANCE of the terrain."""

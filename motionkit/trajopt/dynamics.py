@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import casadi as cs
 import numpy as np
 
+from motionkit.jet_ident.p250 import P250_COEFFS, thrust_acceleration
 from motionkit.trajopt.config import TrajoptConfig
-from motionkit.trajopt.jets import thrust_acceleration
 from motionkit.trajopt.kinematics import GRAVITY, RobotKinematics
 from motionkit.trajopt.layout import MOMENTUM_UNIT, KnotLayout
 
@@ -168,7 +168,7 @@ class ProblemFunctions:
             (b["thrust"] - a["thrust"] - dt * a["thrust_rate"]) / lay.blocks["thrust"].scale,
         ]
         if config.jets.model == "p250":
-            tddot = thrust_acceleration(a["thrust"], a["thrust_rate"], a["throttle"])
+            tddot = thrust_acceleration(P250_COEFFS, a["thrust"], a["thrust_rate"], a["throttle"])
             scale = lay.blocks["thrust_rate"].scale
             defects.append((b["thrust_rate"] - a["thrust_rate"] - dt * tddot) / scale)
         normal = cs.reshape(w0[lay["forces"]], 3, lay.corners)[2, :]

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from motionkit.trajopt.jets import steady_throttle, steady_thrust
+from motionkit.jet_ident.p250 import P250_COEFFS, steady_throttle, steady_thrust
 from motionkit.trajopt.kinematics import GRAVITY
 from motionkit.trajopt.problem import Problem
 
@@ -52,7 +52,7 @@ def apply_scenario(problem: Problem) -> tuple[np.ndarray, float]:
     scenario = config.scenario
     stand = standing(problem)
     forward = np.array(problem.functions.kinematics.robot.spec.forward)
-    idle = steady_thrust(0.0)
+    idle = float(steady_thrust(P250_COEFFS, 0.0))
     last = n - 1
 
     if scenario.start == "stand":
@@ -129,7 +129,7 @@ def _guess(
     physical["corners"] = np.repeat(stand.corners.T.reshape(-1, 1), n, axis=1)
     physical["corners"] += np.tile(base - stand.q[:3, None], (lay.corners, 1))
     physical["thrust"][:] = thrust
-    physical["throttle"][:] = np.array([steady_throttle(t) for t in thrust])
+    physical["throttle"][:] = steady_throttle(P250_COEFFS, thrust)
     on_floor = ~airborne
     physical["forces"][2::3] = np.where(on_floor, (weight - lay.jets * thrust) / lay.corners, 0.0)
     physical["forces"][2::3] = np.maximum(physical["forces"][2::3], 0.0)

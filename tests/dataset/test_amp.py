@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from motionkit.dataset import Metadata, Trajectory, amp_features, amp_pairs, feature_names, resample
-from motionkit.dataset.amp import feature_stats
+from motionkit.dataset.amp import FeatureLayout, feature_stats
 
 YAW_RATE, PITCH, HIP_SPEED = 0.5, 0.3, 0.5
 
@@ -127,3 +127,27 @@ def test_pairs_weights_and_statistics(toy_robot) -> None:
     assert stats.mean.tolist() == [2.0] and stats.std.tolist() == [1.0]
     current, following = pairs.sample(np.random.default_rng(0), 8)
     assert current.shape == following.shape == (8, pairs.current.shape[1])
+
+
+def test_layout_blocks_of_the_toy_biped(toy_robot) -> None:
+    layout = FeatureLayout.of(toy_robot)
+    sizes = [len(columns) for _, columns in layout.blocks]
+    assert sizes == [4, 3, 3, 7, 7, 9, 2] and layout.size == 35
+    assert layout.names == tuple(feature_names(toy_robot))
+    assert layout.slice("joint_velocity") == slice(17, 24)
+    assert layout.names[layout.slice("thrust")] == ("thrust.a", "thrust.b")
+    chi = amp_features(turning_walk(toy_robot), toy_robot)
+    np.testing.assert_array_equal(chi[:, layout.slice("thrust")], [[30, 40]] * len(chi))
+    with pytest.raises(KeyError):
+        layout.slice("heights")
+
+
+def test_layout_join_orders_and_checks_the_blocks(toy_robot) -> None:
+    layout = FeatureLayout.of(toy_robot)
+    parts = {name: np.full((2, len(columns)), i) for i, (name, columns) in enumerate(layout.blocks)}
+    chi = layout.join(dict(reversed(parts.items())))  # the layout's order, not the mapping's
+    np.testing.assert_array_equal(chi[0], np.repeat(np.arange(7), [4, 3, 3, 7, 7, 9, 2]))
+    with pytest.raises(ValueError, match="thrust has 3 columns, not 2"):
+        layout.join({**parts, "thrust": np.zeros((2, 3))})
+    with pytest.raises(ValueError, match="feature blocks"):
+        layout.join({k: v for k, v in parts.items() if k != "thrust"})

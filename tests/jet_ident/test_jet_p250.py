@@ -3,7 +3,26 @@
 import numpy as np
 import pytest
 
-from motionkit.jet_ident.p250 import P250_COEFFS, simulate, steady_thrust, thrust_acceleration
+from motionkit.jet_ident.integrate import simulate
+from motionkit.jet_ident.p250 import (
+    P250_COEFFS,
+    steady_throttle,
+    steady_thrust,
+    thrust_acceleration,
+)
+
+# Tddot at (T, Tdot, u) from the two copies of the model before they became one (trajopt's
+# and jet_ident's thrust_acceleration, float64; both gave these values bit for bit).
+ACCELERATIONS = {
+    (16.0, 0.0, 0.0): 0.029778344871722394,
+    (150.0, -40.0, 80.0): 407.7543500179175,
+    (222.0, 12.5, 100.0): -62.80994642746992,
+    (60.0, 25.0, 30.0): -66.94542908004034,
+}
+# Steady thrust at u = 0, 25, 50, 75, 100 % by the former bisection of jet_ident (60 halvings
+# of 0-400 N); trajopt's former grid search gave the same roots floored to 0.01 N.
+STEADY = (16.002271841175222, 58.60685511208321, 110.55481295885554, 168.94988305562322)
+STEADY += (222.12510140059817,)
 
 
 def test_acceleration_at_the_normalisation_centre_is_65_793_c0() -> None:
@@ -32,6 +51,34 @@ def test_acceleration_mixed_point_term_by_term() -> None:
     expected = 65.793 * (f + g * (v + c[12] * v * v))
     value = thrust_acceleration(P250_COEFFS, 42.516, 32.8965, 15.85)
     assert value == pytest.approx(expected, rel=1e-9)
+
+
+def test_acceleration_is_unchanged_by_the_merge() -> None:
+    for (thrust, rate, throttle), value in ACCELERATIONS.items():
+        assert thrust_acceleration(P250_COEFFS, thrust, rate, throttle) == pytest.approx(
+            value, rel=1e-12, abs=1e-12
+        )
+
+
+def test_steady_thrust_is_the_former_root_and_stable() -> None:
+    throttle = np.array([0.0, 25.0, 50.0, 75.0, 100.0])
+    thrust = steady_thrust(P250_COEFFS, throttle)
+    np.testing.assert_allclose(thrust, STEADY, rtol=0, atol=1e-12)
+    assert np.all(np.abs(thrust_acceleration(P250_COEFFS, thrust, 0.0, throttle)) < 1e-9)
+    # stable: a little more thrust decelerates, a little less accelerates
+    assert np.all(thrust_acceleration(P250_COEFFS, thrust + 1.0, 0.0, throttle) < 0)
+    assert np.all(thrust_acceleration(P250_COEFFS, thrust - 1.0, 0.0, throttle) > 0)
+    # the unstable root at idle lies near 387.5 N, inside the former 0-400 N search
+    above = thrust_acceleration(P250_COEFFS, np.array([387.0, 388.0]), 0.0, 0.0)
+    assert above[0] < 0 < above[1]
+
+
+def test_steady_throttle_inverts_steady_thrust_and_clips() -> None:
+    throttle = np.array([0.0, 10.0, 47.333, 90.0, 100.0])
+    thrust = steady_thrust(P250_COEFFS, throttle)
+    np.testing.assert_allclose(steady_throttle(P250_COEFFS, thrust), throttle, atol=1e-9)
+    # below idle: 0 %; above full thrust: 100 % (also where g < 0, beyond 339 N)
+    np.testing.assert_allclose(steady_throttle(P250_COEFFS, [5.0, 240.0, 350.0]), [0, 100, 100])
 
 
 def test_equilibria_match_the_published_figures() -> None:

@@ -7,7 +7,8 @@ import pytest
 
 from motionkit.jet_ident.config import BenchConfig
 from motionkit.jet_ident.evaluate import noise_sigma
-from motionkit.jet_ident.p250 import P250_COEFFS, simulate, steady_thrust
+from motionkit.jet_ident.integrate import simulate
+from motionkit.jet_ident.p250 import P250_COEFFS, steady_thrust
 from motionkit.jet_ident.synthetic import identification_profile, synthetic_run
 
 SHORT = BenchConfig(duration_s=120.0)

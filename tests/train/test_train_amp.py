@@ -175,7 +175,7 @@ def test_simulator_features_equal_the_dataset_features(env, robot) -> None:
 
     clip = synthetic_trajectory(robot, 0.5, 10.0, thrust=80.0, turn_rate=0.7, seed=3)
     expected = amp_features(clip, robot)
-    expected[:, -4:] /= 250.0  # the environment's thrust features: above idle (0 N) per T_max
+    expected[:, env.layout.slice("thrust")] /= 250.0  # the environment's: above 0 N idle, / T_max
     model = env.mj_model
     data = mujoco.MjData(model)
     for t in range(clip.frames):

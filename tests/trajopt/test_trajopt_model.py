@@ -7,10 +7,15 @@ import numpy as np
 import pytest
 
 from motionkit.errors import TrajoptError
+from motionkit.jet_ident.p250 import (
+    P250_COEFFS,
+    steady_throttle,
+    steady_thrust,
+    thrust_acceleration,
+)
 from motionkit.robot.model import ironcub
 from motionkit.trajopt.config import TrajoptConfig
 from motionkit.trajopt.dynamics import KnotBlocks, quaternion_step, wrench
-from motionkit.trajopt.jets import steady_throttle, steady_thrust, thrust_acceleration
 from motionkit.trajopt.kinematics import RobotKinematics
 from motionkit.trajopt.solve import Prepared
 
@@ -25,13 +30,18 @@ def standing_q(robot) -> np.ndarray:
     return np.r_[0.0, 0.0, 0.6, 1.0, 0.0, 0.0, 0.0, [posture[n] for n in robot.joint_names]]
 
 
-def test_p250_steady_states_match_public_figures() -> None:
-    assert 10.0 <= steady_thrust(0.0) <= 16.5  # idle 10-16 N
-    assert 215.0 <= steady_thrust(100.0) <= 237.0  # full 222-237 N
-    throttle = steady_throttle(110.0)
-    assert thrust_acceleration(110.0, 0.0, throttle) == pytest.approx(0.0, abs=1e-3)
+def test_p250_in_casadi_is_the_numeric_model() -> None:
+    x = cs.SX.sym("x", 3)
+    symbolic = cs.Function("tddot", [x], [thrust_acceleration(P250_COEFFS, x[0], x[1], x[2])])
+    for point in [(16.0, 0.0, 0.0), (150.0, -40.0, 80.0), (222.0, 12.5, 100.0)]:
+        value = float(symbolic(point))
+        assert value == pytest.approx(thrust_acceleration(P250_COEFFS, *point), rel=1e-12)
+    idle = float(steady_thrust(P250_COEFFS, 0.0))  # the 'stand' start: at rest at 0 %
+    assert 10.0 <= idle <= 16.5 and abs(float(symbolic([idle, 0.0, 0.0]))) < 1e-9
+    throttle = float(steady_throttle(P250_COEFFS, 110.0))
+    assert float(symbolic([110.0, 0.0, throttle])) == pytest.approx(0.0, abs=1e-9)
     # more throttle accelerates the engine at a given state
-    assert thrust_acceleration(100.0, 0.0, 80.0) > 0 > thrust_acceleration(100.0, 0.0, 20.0)
+    assert float(symbolic([100.0, 0.0, 80.0])) > 0 > float(symbolic([100.0, 0.0, 20.0]))
 
 
 def test_config_rejects_unknown_keys_and_bad_values() -> None:
