@@ -33,6 +33,10 @@ class JetSpec:
     name: str
     frame: str
     t_max: float  # N
+    # The engine's body: a cylinder from the nozzle (frame origin) along -z, the direction of
+    # thrust [m]. 0: unknown (the retargeting then leaves the jet out of its clearance checks).
+    length: float = 0.0
+    radius: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -43,6 +47,7 @@ class PdGain:
 
 
 PD_FIELDS = (("joints", str), ("kp", float), ("kd", float))
+JET_SIZES = ("length", "radius")  # optional keys of a [[jets]] entry
 
 
 @dataclass(frozen=True)
@@ -142,12 +147,17 @@ class RobotSpec:
                 need(jet, "name", str, f"jets[{i}]."),
                 need(jet, "frame", str, f"jets[{i}]."),
                 need(jet, "t_max", float, f"jets[{i}]."),
+                *(need(jet, key, float, f"jets[{i}].") if key in jet else 0.0 for key in JET_SIZES),
             )
             for i, jet in enumerate(data.get("jets", []))
         )
         for jet in jets:
             if jet.t_max <= 0:
                 raise RobotModelError(f"{source}: jet '{jet.name}' needs t_max > 0 N")
+            if min(jet.length, jet.radius) < 0 or (jet.length > 0) != (jet.radius > 0):
+                raise RobotModelError(
+                    f"{source}: jet '{jet.name}' needs both length and radius > 0 m, or neither"
+                )
         sim = data.get("simulation", {})
         pd = tuple(
             PdGain(*(need(g, k, t, f"simulation.pd[{i}].") for k, t in PD_FIELDS))
