@@ -149,8 +149,8 @@ def main() -> None:
     import jax
 
     from motionkit.robot import ironcub
-    from motionkit.train.command import enable_compile_cache
     from motionkit.train.config import PriorConfig, TrainConfig
+    from motionkit.train.runtime import enable_compile_cache
 
     enable_compile_cache()
     robot = ironcub()

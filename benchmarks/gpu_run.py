@@ -365,7 +365,7 @@ def run(args: argparse.Namespace, clock: float, started: str) -> int:
     out = args.out if args.out is not None else Path("runs/gpu") / recipe.stem
     prepare_out(out, args.resume)
 
-    from motionkit.train.command import enable_compile_cache, require_train_extra
+    from motionkit.train.runtime import enable_compile_cache, require_train_extra
 
     require_train_extra()
     from motionkit.robot import ironcub

@@ -1,6 +1,35 @@
-"""motionkit: motion priors for a flying humanoid (iRonCub), from raw data to a trained policy."""
+"""motionkit: motion priors for a flying humanoid (iRonCub, or any jet-powered robot given by its
+URDF and spec), from raw data to a trained policy.
+
+Each stage is a subpackage with its front door in its docstring: motionkit.robot,
+motionkit.mocap, motionkit.retarget, motionkit.trajopt, motionkit.jet_ident, motionkit.dataset,
+motionkit.train, motionkit.viewer, motionkit.pipeline (imported on first use, e.g.
+`motionkit.trajopt.TrajoptConfig` after `import motionkit`).
+"""
+
+from __future__ import annotations
+
+import importlib
+from types import ModuleType
 
 from motionkit.errors import MotionkitError
 
 __version__ = "0.1.0"
-__all__ = ["MotionkitError", "__version__"]
+STAGES = (
+    "robot",
+    "mocap",
+    "retarget",
+    "trajopt",
+    "jet_ident",
+    "dataset",
+    "train",
+    "viewer",
+    "pipeline",
+)
+__all__ = ["STAGES", "MotionkitError", "__version__"]
+
+
+def __getattr__(name: str) -> ModuleType:
+    if name in STAGES:
+        return importlib.import_module(f"motionkit.{name}")
+    raise AttributeError(f"module 'motionkit' has no attribute {name!r}")

@@ -21,7 +21,7 @@ is its URDF plus a spec TOML (--spec) shaped like motionkit/robot/ironcub.toml: 
 feet and sole corners, jet frames with their maximum thrust, standing posture."""
 
 
-def _add_robot_source(parser: argparse.ArgumentParser) -> None:
+def add_robot_source(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--urdf", type=Path, help="a user robot's URDF (default: iRonCub)")
     parser.add_argument("--spec", type=Path, help="the user robot's spec TOML (with --urdf)")
 
@@ -107,7 +107,7 @@ def build_parser() -> argparse.ArgumentParser:
     info = robot_commands.add_parser(
         "info", help="joints, limits, mass, jets and frames", epilog=ROBOT_EPILOG
     )
-    _add_robot_source(info)
+    add_robot_source(info)
     info.add_argument("--json", action="store_true", help="print JSON instead of a table")
     info.set_defaults(handler=_robot_info)
     export = robot_commands.add_parser(
@@ -118,7 +118,7 @@ def build_parser() -> argparse.ArgumentParser:
         "(free base on a floor, box soles, PD position actuators, one thrust actuator per jet, "
         "keyframe 'stand').",
     )
-    _add_robot_source(export)
+    add_robot_source(export)
     export.add_argument("--format", choices=("urdf", "mjcf"), required=True)
     export.add_argument("--out", type=Path, required=True, help="output folder")
     export.set_defaults(handler=_robot_export)
@@ -135,25 +135,25 @@ def build_parser() -> argparse.ArgumentParser:
 
     from motionkit.dataset.command import add_commands as add_dataset_commands
 
-    add_dataset_commands(stages, _add_robot_source)
+    add_dataset_commands(stages, add_robot_source)
     from motionkit.retarget.command import add_commands as add_retarget_commands
 
-    add_retarget_commands(stages, _add_robot_source)
+    add_retarget_commands(stages, add_robot_source)
     from motionkit.jet_ident.command import add_commands as add_jet_commands
 
     add_jet_commands(stages)
     from motionkit.trajopt.command import add_commands as add_trajopt_commands
 
-    add_trajopt_commands(stages)
+    add_trajopt_commands(stages, add_robot_source)
     from motionkit.train.command import add_commands as add_train_commands
 
-    add_train_commands(stages)
+    add_train_commands(stages, add_robot_source)
     from motionkit.viewer.command import add_commands as add_view_commands
 
-    add_view_commands(stages, _add_robot_source)
+    add_view_commands(stages, add_robot_source)
     from motionkit.pipeline.command import add_commands as add_pipeline_commands
 
-    add_pipeline_commands(stages)
+    add_pipeline_commands(stages, add_robot_source)
     return parser
 
 

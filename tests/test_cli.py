@@ -29,6 +29,16 @@ def test_help_explains_commands() -> None:
     assert result.returncode == 0 and "--format" in result.stdout and "--spec" in result.stdout
 
 
+@pytest.mark.parametrize(
+    "command", [["retarget"], ["trajopt"], ["train"], ["train", "ablation"], ["pipeline"], ["view"]]
+)
+def test_every_stage_takes_the_robot(command: list[str], capsys: pytest.CaptureFixture) -> None:
+    with pytest.raises(SystemExit):
+        main([*command, "--help"])
+    text = capsys.readouterr().out
+    assert "--urdf URDF" in text and "--spec SPEC" in text
+
+
 def test_robot_info_json(capsys: pytest.CaptureFixture) -> None:
     assert main(["robot", "info", "--json"]) == 0
     info = json.loads(capsys.readouterr().out)

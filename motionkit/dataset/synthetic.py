@@ -1,8 +1,9 @@
 """A synthetic motion with known velocities, for tests, benchmarks and examples.
 
 The base moves on a circle at `speed` m/s while turning at `turn_rate` rad/s about world z and
-bobbing 2 cm at 1 Hz; every joint swings sinusoidally inside a quarter of its range; velocities
-are the exact derivatives. Contacts alternate with the sign of a 1 Hz gait phase.
+bobbing 2 cm at 1 Hz about the robot's standing base height; every joint swings sinusoidally
+inside a quarter of its range; velocities are the exact derivatives. Contacts alternate with
+the sign of a 1 Hz gait phase.
 """
 
 from __future__ import annotations
@@ -11,8 +12,7 @@ import numpy as np
 
 from motionkit.dataset.trajectory import Metadata, Source, Trajectory
 from motionkit.robot import Robot
-
-BASE_HEIGHT = 0.6  # m
+from motionkit.robot.mjcf import standing_height
 
 
 def synthetic_trajectory(
@@ -32,8 +32,9 @@ def synthetic_trajectory(
     yaw = turn_rate * time
     radius = speed / turn_rate
     bob = 2 * np.pi * 1.0
+    height = standing_height(robot, robot.spec.posture_angles())
     base_position = np.stack(
-        [radius * np.sin(yaw), radius * (1 - np.cos(yaw)), BASE_HEIGHT + 0.02 * np.sin(bob * time)],
+        [radius * np.sin(yaw), radius * (1 - np.cos(yaw)), height + 0.02 * np.sin(bob * time)],
         axis=1,
     )
     base_linear_velocity = np.stack(

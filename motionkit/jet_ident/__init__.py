@@ -3,13 +3,14 @@
     log = read_log("bench.csv")                       # checked CSV (time_s, throttle_pct, thrust_n)
     run = synthetic_run(BenchConfig(), seed=1)        # a synthetic P250 bench log
     result = identify([log, ...], JetIdentConfig())   # LSTM + baselines, validation metrics
+    report = fit_logs([path, ...], out, config)       # the same from CSV files, model and reports
     save_model("model.npz", result.training.params, metadata)
     params, metadata = load_model("model.npz")
     state = initial_state(params, thrust, throttle)
     state, thrust = thrust_next(params, state, thrust, throttle)   # pure JAX; jit and vmap
 
 The names that need JAX (the [train] extra) are imported on first use, so that reading logs
-and configs works without it.
+and configs works without it; without JAX they are a JetIdentError naming the extra.
 """
 
 from __future__ import annotations
@@ -17,6 +18,8 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
+from motionkit.errors import JetIdentError
+from motionkit.extras import require
 from motionkit.jet_ident.benchlog import BenchLog, parse_log, read_log, write_log
 from motionkit.jet_ident.config import BenchConfig, JetIdentConfig, ModelConfig, TrainConfig
 
@@ -27,6 +30,7 @@ _LAZY = {
     "identification_profile": "synthetic",
     "train_lstm": "train",
     "identify": "fit",
+    "fit_logs": "fit",
     "fit_grey_box": "baselines",
     "fit_first_order": "baselines",
     "noise_floor": "evaluate",
@@ -54,5 +58,6 @@ __all__ = [
 
 def __getattr__(name: str) -> Any:
     if name in _LAZY:
+        require("train", f"motionkit.jet_ident.{name}", JetIdentError, ("jax", "flax", "optax"))
         return getattr(importlib.import_module(f"motionkit.jet_ident.{_LAZY[name]}"), name)
     raise AttributeError(f"module 'motionkit.jet_ident' has no attribute {name!r}")

@@ -4,15 +4,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
-from typing import Any
 
 from motionkit.errors import JetIdentError
 from motionkit.extras import require
 from motionkit.jet_ident.benchlog import COLUMNS, read_log
 from motionkit.jet_ident.config import JetIdentConfig
-from motionkit.outputs import write_text_atomic
 from motionkit.recipes import argument
 
 # The handlers import the JAX modules when they run: `motionkit` works without the extra.
@@ -134,63 +131,10 @@ def _simulate(args: argparse.Namespace) -> int:
 
 def _fit(args: argparse.Namespace) -> int:
     _require_train_extra()
+    from motionkit.jet_ident.fit import fit_logs
+
     fit_logs(args.logs, Path(args.out), _config(args.config))
     return 0
-
-
-def fit_logs(paths: list[Path], out: Path, config: JetIdentConfig) -> dict[str, Any]:
-    """Fit the LSTM and the baselines to the bench logs at `paths`, print the comparison and
-    write OUT/model.npz, config.toml, report.json, report.txt, history.csv (and
-    validation.png with matplotlib); returns the report."""
-    from motionkit.jet_ident.evaluate import report_table
-    from motionkit.jet_ident.export import baselines_metadata, save_model
-    from motionkit.jet_ident.fit import identify, lstm_wins
-
-    logs = [read_log(path) for path in paths]  # every log checked before the long part
-    names = [log.name for log in logs]
-    print(
-        f"{len(logs)} log(s): "
-        + ", ".join(f"{n} ({g.duration:.0f} s)" for n, g in zip(names, logs, strict=True))
-    )
-    result = identify(logs, config, lambda line: print(line, flush=True))
-    table = report_table(result.metrics, result.floor)
-    report: dict[str, Any] = {
-        "logs": [str(p) for p in paths],
-        "validation_fraction": config.train.validation_fraction,
-        "warmup": config.train.warmup,
-        "metrics": {name: m.to_dict() for name, m in result.metrics.items()},
-        "noise_floor": {"mae": result.floor[0], "rmse": result.floor[1]},
-        "lstm_beats_baselines": lstm_wins(result.metrics),
-        "training": {
-            "best_step": result.training.best_step,
-            "stopped": result.training.stopped,
-            "seconds": round(result.training.seconds, 2),
-        },
-        "baseline_smoothing_s": result.smoothing_s,
-    }
-    metadata = {
-        "baselines": baselines_metadata(result.grey_box, result.first_order),
-        "warmup": config.train.warmup,
-        "config": config.to_dict(),
-        "report": report,
-    }
-    save_model(out / "model.npz", result.training.params, metadata)
-    write_text_atomic(out / "config.toml", config.to_toml())
-    write_text_atomic(out / "report.json", json.dumps(report, indent=2) + "\n")
-    title = f"validation (free run, last {config.train.validation_fraction:.0%} of each log)"
-    write_text_atomic(out / "report.txt", f"{title}\n{table}\n")
-    rows = ["step,loss,val_mae,val_rmse,seconds"]
-    rows += [
-        ",".join(f"{h[k]:g}" for k in ("step", "loss", "val_mae", "val_rmse", "seconds"))
-        for h in result.training.history
-    ]
-    write_text_atomic(out / "history.csv", "\n".join(rows) + "\n")
-    print(f"\n{title}")
-    print(table)
-    print(f"LSTM beats both baselines: {'yes' if report['lstm_beats_baselines'] else 'NO'}")
-    _try_plot(out / "validation.png", result.validation[0], result.models(), config.train.warmup)
-    print(f"wrote {out}/model.npz, config.toml, report.json, report.txt, history.csv")
-    return report
 
 
 def _eval(args: argparse.Namespace) -> int:
@@ -199,6 +143,7 @@ def _eval(args: argparse.Namespace) -> int:
         LSTMRunner,
         evaluate,
         noise_floor,
+        plot_models,
         report_table,
         require_matplotlib,
     )
@@ -226,24 +171,6 @@ def _eval(args: argparse.Namespace) -> int:
     else:
         print(f"free run over {len(logs)} log(s) after {warmup} warm-up samples")
         print(report_table(results, floor))
-    if args.plot:
-        _try_plot(args.plot, logs[0], models, warmup, quiet=args.json)
+    if args.plot and plot_models(args.plot, logs[0], models, warmup) and not args.json:
+        print(f"wrote {args.plot}")
     return 0
-
-
-def _try_plot(
-    path: Path, log: Any, models: dict[str, Any], warmup: int, quiet: bool = False
-) -> None:
-    from motionkit.jet_ident.evaluate import plot
-
-    runs = {
-        name: model.free_run(log.thrust, log.throttle, warmup, log.dt)
-        for name, model in models.items()
-    }
-    try:
-        plot(path, log, runs, warmup)
-    except JetIdentError as exc:
-        print(f"plot skipped: {exc}", file=sys.stderr)
-        return
-    if not quiet:
-        print(f"wrote {path}")

@@ -15,10 +15,11 @@ its own output. Errors are simulated minus measured thrust over the free-run sam
 from __future__ import annotations
 
 import itertools
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Protocol
+from typing import Any, Protocol
 
 import jax.numpy as jnp
 import numpy as np
@@ -226,3 +227,18 @@ def plot(path: Path, log: BenchLog, runs: Mapping[str, np.ndarray], warmup: int)
     with atomic_output(Path(path)) as stream:
         figure.savefig(stream, format="png", dpi=110)
     plt.close(figure)
+
+
+def plot_models(path: Path, log: BenchLog, models: Mapping[str, Any], warmup: int) -> bool:
+    """Free-run every model over `log` and plot them (`plot`); False, with a notice on stderr,
+    where the plot cannot be drawn (no matplotlib)."""
+    runs = {
+        name: model.free_run(log.thrust, log.throttle, warmup, log.dt)
+        for name, model in models.items()
+    }
+    try:
+        plot(path, log, runs, warmup)
+    except JetIdentError as exc:
+        print(f"plot skipped: {exc}", file=sys.stderr)
+        return False
+    return True

@@ -1,16 +1,29 @@
 """The identification run: the LSTM and both baselines fitted to the same logs, all three
-free-run on the held-back validation part of every log."""
+free-run on the held-back validation part of every log; `fit_logs` runs it on log files and
+writes the model and its reports."""
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 from motionkit.jet_ident.baselines import FirstOrderLag, GreyBox, fit_first_order, fit_grey_box
-from motionkit.jet_ident.benchlog import BenchLog
+from motionkit.jet_ident.benchlog import BenchLog, read_log
 from motionkit.jet_ident.config import JetIdentConfig
-from motionkit.jet_ident.evaluate import LSTMRunner, Metrics, evaluate, noise_floor
+from motionkit.jet_ident.evaluate import (
+    LSTMRunner,
+    Metrics,
+    evaluate,
+    noise_floor,
+    plot_models,
+    report_table,
+)
+from motionkit.jet_ident.export import baselines_metadata, save_model
 from motionkit.jet_ident.train import TrainResult, train_lstm
+from motionkit.outputs import write_text_atomic
 
 SMOOTHING_S = (0.3, 0.5, 0.7, 1.0)  # baseline derivative filters tried; validation picks one
 LSTM, GREY_BOX, FIRST_ORDER = "LSTM", "grey-box 2nd order", "first-order lag"
@@ -86,3 +99,56 @@ def lstm_wins(metrics: dict[str, Metrics]) -> bool:
     """Whether the LSTM has the lowest MAE and RMSE of all models."""
     others = [m for name, m in metrics.items() if name != LSTM]
     return all(metrics[LSTM].mae < m.mae and metrics[LSTM].rmse < m.rmse for m in others)
+
+
+def fit_logs(paths: list[Path], out: Path, config: JetIdentConfig) -> dict[str, Any]:
+    """Fit the LSTM and the baselines to the bench logs at `paths`, print the comparison and
+    write OUT/model.npz, config.toml, report.json, report.txt, history.csv (and
+    validation.png with matplotlib); returns the report."""
+    warmup = config.train.warmup
+    logs = [read_log(path) for path in paths]  # every log checked before the long part
+    names = [log.name for log in logs]
+    print(
+        f"{len(logs)} log(s): "
+        + ", ".join(f"{n} ({g.duration:.0f} s)" for n, g in zip(names, logs, strict=True))
+    )
+    result = identify(logs, config, lambda line: print(line, flush=True))
+    table = report_table(result.metrics, result.floor)
+    report: dict[str, Any] = {
+        "logs": [str(p) for p in paths],
+        "validation_fraction": config.train.validation_fraction,
+        "warmup": warmup,
+        "metrics": {name: m.to_dict() for name, m in result.metrics.items()},
+        "noise_floor": {"mae": result.floor[0], "rmse": result.floor[1]},
+        "lstm_beats_baselines": lstm_wins(result.metrics),
+        "training": {
+            "best_step": result.training.best_step,
+            "stopped": result.training.stopped,
+            "seconds": round(result.training.seconds, 2),
+        },
+        "baseline_smoothing_s": result.smoothing_s,
+    }
+    metadata = {
+        "baselines": baselines_metadata(result.grey_box, result.first_order),
+        "warmup": warmup,
+        "config": config.to_dict(),
+        "report": report,
+    }
+    save_model(out / "model.npz", result.training.params, metadata)
+    write_text_atomic(out / "config.toml", config.to_toml())
+    write_text_atomic(out / "report.json", json.dumps(report, indent=2) + "\n")
+    title = f"validation (free run, last {config.train.validation_fraction:.0%} of each log)"
+    write_text_atomic(out / "report.txt", f"{title}\n{table}\n")
+    rows = ["step,loss,val_mae,val_rmse,seconds"]
+    rows += [
+        ",".join(f"{h[k]:g}" for k in ("step", "loss", "val_mae", "val_rmse", "seconds"))
+        for h in result.training.history
+    ]
+    write_text_atomic(out / "history.csv", "\n".join(rows) + "\n")
+    print(f"\n{title}")
+    print(table)
+    print(f"LSTM beats both baselines: {'yes' if report['lstm_beats_baselines'] else 'NO'}")
+    if plot_models(out / "validation.png", result.validation[0], result.models(), warmup):
+        print(f"wrote {out / 'validation.png'}")
+    print(f"wrote {out}/model.npz, config.toml, report.json, report.txt, history.csv")
+    return report

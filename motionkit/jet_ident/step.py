@@ -52,8 +52,8 @@ class LSTMThrust:
 @struct.dataclass
 class IdealThrust:
     dt: float  # s
-    t_max: float = 250.0  # N
-    rate_max: float = 300.0  # N/s
+    t_max: float  # N, the robot's (its spec's)
+    rate_max: float  # N/s
 
 
 def thrust_next(params: LSTMThrust | IdealThrust, state: Any, thrust: jax.Array, u: jax.Array):

@@ -3,21 +3,18 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-import time
+from collections.abc import Callable
 from pathlib import Path
 
-from motionkit.errors import MotionkitError, PipelineError
+from motionkit.errors import PipelineError
 from motionkit.extras import require
-from motionkit.outputs import write_text_atomic
-from motionkit.pipeline.cache import Outcome
 from motionkit.pipeline.config import PipelineConfig
-from motionkit.pipeline.stages import STAGES, Context
+from motionkit.pipeline.runner import STAGE_NAMES, run_pipeline
 from motionkit.recipes import argument
+from motionkit.robot import load_robot
 
 DEFAULT_CONFIG = "tiny_cpu"
-STAGE_NAMES = tuple(name for name, _ in STAGES)
 
 EPILOG = """\
 Stages, in order, each into its folder of OUT:
@@ -31,9 +28,10 @@ Stages, in order, each into its folder of OUT:
   datasets   datasets/  every clip validated against the robot, its physics figures shown;
                         index.json
   train      train/     the AMP + PPO run (tiny CPU recipe; the paper's GPU recipe with --full)
-A stage runs again only when what it reads changed: input files, its resolved recipe, the
-stages before it, motionkit's code for it or its main libraries (the hash is its key, kept in
-OUT/.pipeline/). A failing stage removes what it wrote, and the pipeline stops with status 2.
+Every stage works on the same robot (--urdf/--spec; default iRonCub). A stage runs again only
+when what it reads changed: input files, its resolved recipe, the robot, the stages before it,
+motionkit's code for it or its main libraries (the hash is its key, kept in OUT/.pipeline/).
+A failing stage removes what it wrote, and the pipeline stops with status 2.
 OUT/pipeline_summary.json holds the table printed at the end.
 
   motionkit pipeline                                   (the built-in sample, offline)
@@ -41,7 +39,9 @@ OUT/pipeline_summary.json holds the table printed at the end.
   motionkit view runs/pipeline/walk"""
 
 
-def add_commands(stages: argparse._SubParsersAction) -> None:
+def add_commands(
+    stages: argparse._SubParsersAction, robot_source: Callable[[argparse.ArgumentParser], None]
+) -> None:
     parser = stages.add_parser(
         "pipeline",
         help="everything from raw data to a trained policy, cached stage by stage",
@@ -73,6 +73,7 @@ def add_commands(stages: argparse._SubParsersAction) -> None:
         choices=STAGE_NAMES,
         help="stop after this stage (the later stages are neither run nor checked)",
     )
+    robot_source(parser)
     parser.set_defaults(handler=_run)
 
 
@@ -84,47 +85,29 @@ def _require_extras() -> None:
 def _run(args: argparse.Namespace) -> int:
     config = PipelineConfig.from_toml(args.config)
     _require_extras()
+    robot = load_robot(args.urdf, args.spec)
     if args.full:
         _warn_without_gpu()
-    ctx = Context(config, args.out.resolve(), args.mocap_dir, args.full, args.force, args.fetch)
-    start = time.perf_counter()
-    outcomes = []
-    last = STAGE_NAMES.index(args.until or STAGE_NAMES[-1])
-    for number, (name, stage) in enumerate(STAGES[: last + 1], 1):
-        print(f"\n=== [{number}/{last + 1}] {name}", flush=True)
-        tick = time.perf_counter()
-        try:
-            outcome = stage(ctx)
-        except MotionkitError as exc:  # bad input or a failed solve; a bug keeps its traceback
-            seconds = time.perf_counter() - tick
-            raise PipelineError(f"stage {name} failed after {seconds:.0f} s: {exc}") from exc
-        outcomes.append(outcome)
-        if outcome.status == "cached":
-            print(f"cached (key {outcome.key}): {outcome.made}")
-        else:
-            print(f"=== {name} done in {outcome.seconds:.0f} s: {outcome.made}")
-    total = time.perf_counter() - start
-    summary = {"config": str(config.source), "out": str(ctx.out), "seconds": round(total, 1),
-               "stages": [o.to_dict() for o in outcomes]}  # fmt: skip
-    write_text_atomic(ctx.out / "pipeline_summary.json", json.dumps(summary, indent=2) + "\n")
-    _print_table(outcomes, total)
+    out = args.out.resolve()
+    run_pipeline(
+        config,
+        out,
+        robot,
+        mocap_dir=args.mocap_dir,
+        full=args.full,
+        force=args.force,
+        fetch=args.fetch,
+        until=args.until,
+    )
     if args.until and args.until != "train":
         return 0
     print(
         "\nWatch the results in the browser:\n"
-        f"  motionkit view {ctx.folder('walk')}      (retargeted walks, with the human skeleton)\n"
-        f"  motionkit view {ctx.folder('flight')}    (optimised flights, with contact forces)\n"
-        f"  motionkit view {ctx.folder('train')}     (the policy's evaluation rollouts)"
+        f"  motionkit view {out / 'walk'}      (retargeted walks, with the human skeleton)\n"
+        f"  motionkit view {out / 'flight'}    (optimised flights, with contact forces)\n"
+        f"  motionkit view {out / 'train'}     (the policy's evaluation rollouts)"
     )
     return 0
-
-
-def _print_table(outcomes: list[Outcome], total: float) -> None:
-    print(f"\n{'stage':<10} {'status':<7} {'time':>7}  {'output':<34} made")
-    for o in outcomes:
-        when = f"{o.seconds:.0f} s" if o.status == "ran" else "-"
-        print(f"{o.stage:<10} {o.status:<7} {when:>7}  {o.output:<34} {o.made}")
-    print(f"total {total:.0f} s")
 
 
 def _warn_without_gpu() -> None:

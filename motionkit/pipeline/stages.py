@@ -1,5 +1,6 @@
 """The pipeline's stages, in order: retarget, trajopt, jet_ident, datasets, train. Each
-computes its key from what it reads, then runs (or is found cached) through `run_cached`."""
+computes its key from what it reads (the robot's model hash included where it uses the robot),
+then runs (or is found cached) through `run_cached`; every stage of a run uses its one robot."""
 
 from __future__ import annotations
 
@@ -20,6 +21,7 @@ from motionkit.pipeline.cache import (
     versions,
 )
 from motionkit.pipeline.config import PipelineConfig
+from motionkit.robot import Robot
 
 JAX = ("jax", "jaxlib", "flax", "optax")
 
@@ -28,6 +30,7 @@ JAX = ("jax", "jaxlib", "flax", "optax")
 class Context:
     config: PipelineConfig
     out: Path
+    robot: Robot
     mocap_dir: Path | None = None
     full: bool = False
     force: bool = False
@@ -56,8 +59,7 @@ def _retarget_recipe(ctx: Context) -> str:
 
 
 def retarget(ctx: Context) -> Outcome:
-    from motionkit.retarget.batch import resolve_inputs
-    from motionkit.retarget.command import run_retarget
+    from motionkit.retarget.batch import resolve_inputs, run_retarget
     from motionkit.retarget.config import RetargetConfig
 
     recipe = ctx.config.resolve("retarget", _retarget_recipe(ctx))
@@ -79,13 +81,14 @@ def retarget(ctx: Context) -> Outcome:
     parts = (
         files,
         config.to_dict(),
+        ctx.robot.model_hash,
         source_digest(["retarget", "mocap", "dataset", "robot"]),
         versions("placo", "pin"),
     )
 
     def work(folder: Path) -> str:
         jobs = ctx.config.retarget.jobs or os.cpu_count() or 1
-        results = run_retarget(clips, folder, config, jobs)
+        results = run_retarget(clips, folder, config, jobs, ctx.robot)
         failed = [r for r in results if r.output is None]
         if failed:
             raise PipelineError(
@@ -99,9 +102,9 @@ def retarget(ctx: Context) -> Outcome:
 
 
 def trajopt(ctx: Context) -> Outcome:
-    from motionkit.trajopt.command import run_one, solve_library, summary_line
     from motionkit.trajopt.config import TrajoptConfig
     from motionkit.trajopt.library import read_library
+    from motionkit.trajopt.runner import solve_clip, solve_library, summary_line
 
     stage = ctx.config.trajopt
     configs = {}
@@ -114,6 +117,7 @@ def trajopt(ctx: Context) -> Outcome:
         {name: c.to_dict() for name, c in configs.items()},
         {s.name: s.config.to_dict() for s in solves},
         stage.replay,
+        ctx.robot.model_hash,
         source_digest(["trajopt", "dataset", "robot"]),
         versions("casadi", "adam-robotics", "mujoco"),
     )
@@ -122,13 +126,13 @@ def trajopt(ctx: Context) -> Outcome:
         solve_s = 0.0
         for i, (name, config) in enumerate(configs.items(), 1):
             print(f"flight {i}/{len(configs)}: {name} ({config.scenario.knots} knots)", flush=True)
-            metrics = run_one(config, folder, name, stage.replay)
+            metrics = solve_clip(config, folder, name, ctx.robot, stage.replay)
             print(summary_line(name, metrics), flush=True)
             solve_s += metrics["solve_s"]
         made = [f"{len(configs)} flight(s) ({', '.join(configs)})"] if configs else []
         if library is not None:
             jobs = stage.jobs or os.cpu_count() or 1
-            outcomes = solve_library(library, folder, jobs, stage.replay, quiet=True)
+            outcomes = solve_library(library, folder, ctx.robot, jobs, stage.replay, quiet=True)
             failed = [f"{name}: {text}" for name, ok, text, _ in outcomes if not ok]
             if failed:
                 raise PipelineError(
@@ -151,8 +155,7 @@ def jet_ident(ctx: Context) -> Outcome:
 
     def work(folder: Path) -> str:
         from motionkit.jet_ident.benchlog import write_log
-        from motionkit.jet_ident.command import fit_logs
-        from motionkit.jet_ident.fit import LSTM
+        from motionkit.jet_ident.fit import LSTM, fit_logs
         from motionkit.jet_ident.synthetic import synthetic_run
 
         logs = []
@@ -171,14 +174,14 @@ def jet_ident(ctx: Context) -> Outcome:
 
 
 def datasets(ctx: Context) -> Outcome:
-    parts = (ctx.keys["retarget"], ctx.keys["trajopt"], source_digest(["dataset"]))
+    keys = (ctx.keys["retarget"], ctx.keys["trajopt"])
+    parts = (keys, ctx.robot.model_hash, source_digest(["dataset"]))
 
     def work(folder: Path) -> str:
         from motionkit.dataset.collection import MotionDataset
         from motionkit.dataset.validate import validate_clip
-        from motionkit.robot import ironcub
 
-        robot = ironcub()
+        robot = ctx.robot
         dataset = MotionDataset([ctx.folder("walk"), ctx.folder("flight")])
         rows = []
         for clip in dataset.clips:
@@ -257,18 +260,19 @@ def train(ctx: Context) -> Outcome:
     parts = (
         config.to_dict(),
         [ctx.keys[s] for s in ("retarget", "trajopt", "jet_ident", "datasets")],
+        ctx.robot.model_hash,
         source_digest(["train", "dataset", "robot", "jet_ident"]),
         versions(*JAX, "mujoco", "mujoco-mjx"),
     )
 
     def work(folder: Path) -> str:
-        from motionkit.robot import ironcub
-        from motionkit.train.command import enable_compile_cache, require_train_extra
-        from motionkit.train.run import train as train_policy
+        from motionkit.train.runtime import enable_compile_cache, require_train_extra
 
         require_train_extra()
+        from motionkit.train.run import train as train_policy
+
         enable_compile_cache()
-        summary = train_policy(config, folder, ironcub(), progress=lambda s: print(s, flush=True))
+        summary = train_policy(config, folder, ctx.robot, progress=lambda s: print(s, flush=True))
         last = summary["train"]
         return (
             f"{summary['iterations']} iterations, {summary['env_steps']:.0f} env steps; "

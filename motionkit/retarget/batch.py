@@ -1,21 +1,25 @@
-"""Many clips: inputs (files, folders, CMU clip ids) to MCAP files, in parallel processes."""
+"""Many clips: inputs (files, folders, CMU clip ids) to MCAP files, in parallel processes, with
+progress lines, the quality table and OUT/retarget_summary.json (`run_retarget`)."""
 
 from __future__ import annotations
 
-import functools
+import json
 import multiprocessing
 import re
+import sys
 import time as clock
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from motionkit.dataset import Source
 from motionkit.errors import MotionkitError, RetargetError
+from motionkit.outputs import write_text_atomic
 from motionkit.progress import LineProgress
 from motionkit.retarget.config import RetargetConfig
-from motionkit.robot import Robot
+from motionkit.robot import Robot, ironcub
 
 MOCAP_SUFFIXES = (".bvh", ".amc")
 _CMU_NAME = re.compile(r"(?:^|[^0-9])(\d{1,3}_\d{1,2})(?:[^0-9]|$)")
@@ -100,19 +104,18 @@ def retarget_clip(
     clip: ClipInput,
     out: Path,
     config: RetargetConfig,
-    robot_files: tuple[Path | None, Path | None] = (None, None),
+    robot: Robot | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> ClipResult:
-    """Read, retarget and write one clip as `out/<name>.mcap`; errors become the result's
-    `error` (nothing is written for a failed clip)."""
+    """Read, retarget and write one clip for `robot` (default iRonCub) as `out/<name>.mcap`;
+    errors become the result's `error` (nothing is written for a failed clip)."""
     from motionkit.dataset import write
     from motionkit.mocap import load_mocap
     from motionkit.retarget.core import CMU_ACKNOWLEDGEMENT, CMU_LICENCE, retarget
 
-    start = clock.perf_counter()
+    robot = robot or ironcub()
+    began = clock.perf_counter()
     try:
-        robot = _load_robot(*robot_files)
-        began = clock.perf_counter()
         motion = load_mocap(clip.path, asf=clip.asf)
         read = clock.perf_counter()
         cmu = bool(clip.cmu_clip)
@@ -132,7 +135,6 @@ def retarget_clip(
     except MotionkitError as exc:
         return ClipResult(clip.name, str(clip.path), None, error=str(exc))
     stages = {
-        "robot": began - start,
         "read": read - began,
         "targets": timings.targets,
         "ik": timings.ik,
@@ -144,7 +146,7 @@ def retarget_clip(
         str(clip.path),
         path,
         frames,
-        written - start,
+        written - began,
         stages,
         dict(trajectory.metadata.metrics),
     )
@@ -155,10 +157,12 @@ def retarget_all(
     out: Path,
     config: RetargetConfig,
     jobs: int = 1,
-    robot_files: tuple[Path | None, Path | None] = (None, None),
+    robot: Robot | None = None,
     report: Callable[[ClipResult, int, int], None] | None = None,
 ) -> list[ClipResult]:
-    """Retarget every clip (in `jobs` processes when > 1); results in input order."""
+    """Retarget every clip for `robot` (default iRonCub; in `jobs` processes when > 1);
+    results in input order."""
+    robot = robot or ironcub()
     if not clips:
         raise RetargetError("nothing to retarget: give files, folders or CMU clip ids")
     names = [c.name for c in clips]
@@ -169,7 +173,7 @@ def retarget_all(
     if jobs <= 1 or len(clips) == 1:
         for i, clip in enumerate(clips):
             bar = _FrameBar(clip.name) if report is not None else None
-            results[i] = retarget_clip(clip, out, config, robot_files, bar)
+            results[i] = retarget_clip(clip, out, config, robot, bar)
             if bar is not None:
                 bar.close()
             if report is not None:
@@ -179,7 +183,7 @@ def retarget_all(
         spawn = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(max_workers=jobs, mp_context=spawn) as pool:
             futures = {
-                pool.submit(retarget_clip, clip, out, config, robot_files): i
+                pool.submit(retarget_clip, clip, out, config, robot): i
                 for i, clip in enumerate(clips)
             }
             for future in as_completed(futures):
@@ -188,14 +192,6 @@ def retarget_all(
                 if report is not None:
                     report(results[i], len(results), len(clips))
     return [results[i] for i in range(len(clips))]
-
-
-@functools.cache
-def _load_robot(urdf: Path | None, spec: Path | None) -> Robot:
-    """One robot per process and robot description."""
-    from motionkit.robot import load_robot
-
-    return load_robot(urdf, spec)
 
 
 class _FrameBar:
@@ -209,3 +205,77 @@ class _FrameBar:
 
     def close(self) -> None:
         self.line.close(keep=False)  # the clip's summary line follows
+
+
+def run_retarget(
+    clips: list[ClipInput],
+    out: Path,
+    config: RetargetConfig,
+    jobs: int = 1,
+    robot: Robot | None = None,
+) -> list[ClipResult]:
+    """Retarget `clips` into `out` for `robot` (default iRonCub) with progress lines, the
+    quality table and OUT/retarget_summary.json; returns every clip's result (failed ones have
+    no output)."""
+    print(f"retargeting {len(clips)} clip(s) into {out} with {min(jobs, len(clips))} job(s)")
+    results = retarget_all(clips, out, config, jobs, robot, report=_report_clip)
+    _print_table(results)
+    done = [r for r in results if r.output is not None]
+    if done:
+        summary = {"config": config.to_dict(), "clips": [_result_json(r) for r in results]}
+        write_text_atomic(out / "retarget_summary.json", json.dumps(summary, indent=2))
+    failed = len(results) - len(done)
+    if failed:
+        print(f"{failed} of {len(results)} clip(s) failed; nothing written for them")
+    return results
+
+
+def _report_clip(result: ClipResult, done: int, total: int) -> None:
+    if result.output is None:
+        print(f"[{done}/{total}] {result.name}: failed: {result.error}", file=sys.stderr)
+    else:
+        rate = result.frames / result.seconds if result.seconds else 0.0
+        print(
+            f"[{done}/{total}] {result.name}: {result.frames} frames in {result.seconds:.2f} s "
+            f"({rate:.0f} frames/s) -> {result.output}",
+            flush=True,
+        )
+
+
+def _print_table(results: list[ClipResult]) -> None:
+    header = (
+        f"{'clip':<18} {'frames':>6} {'slide p95':>9} {'source':>7} {'sink':>6} {'limits':>6} "
+        f"{'feet':>6} {'knees':>6} {'clear':>7}  check"
+    )
+    print(f"\n{header}\n{'':<18} {'':>6} {'[cm/s]':>9} {'[cm/s]':>7} {'[mm]':>6} {'':>6} "
+          f"{'[cm]':>6} {'[cm]':>6} {'[cm]':>7}")  # fmt: skip
+    for r in results:
+        if r.output is None:
+            print(f"{r.name:<18} failed: {r.error}")
+            continue
+        m = r.metrics
+        violations = int(m["joint_position_violations"]) + int(m["joint_velocity_violations"])
+        problems = r.problems()
+        print(
+            f"{r.name:<18} {r.frames:>6} {100 * float(m['foot_slide_p95_m_s']):>9.2f} "
+            f"{100 * float(m['source_slide_p95_m_s']):>7.1f} "
+            f"{1000 * float(m['penetration_max_m']):>6.2f} {violations:>6d} "
+            f"{100 * float(m['feet_error_mean_m']):>6.2f} "
+            f"{100 * float(m['knees_error_mean_m']):>6.2f} "
+            f"{100 * float(m['closest_approach_m']):>7.1f}  "
+            f"{'ok' if not problems else 'beyond: ' + ', '.join(problems)}"
+        )
+    print(f"(clean: {', '.join(f'{k} <= {v}' for k, v in QUALITY.items())})")
+
+
+def _result_json(result: ClipResult) -> dict[str, Any]:
+    return {
+        "name": result.name,
+        "source": result.source,
+        "output": str(result.output) if result.output else None,
+        "frames": result.frames,
+        "seconds": result.seconds,
+        "stages_s": result.stages,
+        "metrics": result.metrics,
+        "error": result.error,
+    }

@@ -12,7 +12,6 @@ from motionkit.retarget.points import Point
 from motionkit.retarget.targets import SIDES
 from motionkit.robot import Robot
 from motionkit.robot.geometry import Array
-from motionkit.robot.mk1_1 import JET_LENGTH, JET_RADIUS
 from motionkit.robot.urdf import RobotModel, Shape
 
 
@@ -25,8 +24,9 @@ class Capsule:
 
 
 def capsules(robot: Robot, points: dict[str, Point]) -> tuple[list[Capsule], set[frozenset]]:
-    """Limb, foot and jet capsules (radii are rough sizes of iCub's links and the P250), and
-    the pairs that share a joint or a mounting (they may touch by design)."""
+    """Limb and foot capsules (radii are rough sizes of a humanoid's links), the capsules of the
+    jets the spec gives a size, and the pairs that share a joint or a mounting (they may touch
+    by design)."""
     shapes, adjacent = [], set()
     poses = robot.model.link_poses()
     hands = dict(zip(robot.spec.hands, SIDES, strict=False))
@@ -49,9 +49,9 @@ def capsules(robot: Robot, points: dict[str, Point]) -> tuple[list[Capsule], set
             frozenset((f"{side}_thigh", f"{side}_shank")),
             frozenset((f"{side}_shank", f"{side}_foot")),
         }
-    for jet in robot.spec.jets:
-        top = Point(jet.frame, np.array([0.0, 0.0, -JET_LENGTH]))
-        shapes.append(Capsule(f"jet_{jet.name}", Point(jet.frame, np.zeros(3)), top, JET_RADIUS))
+    for jet in (jet for jet in robot.spec.jets if jet.length > 0):
+        top = Point(jet.frame, np.array([0.0, 0.0, -jet.length]))
+        shapes.append(Capsule(f"jet_{jet.name}", Point(jet.frame, np.zeros(3)), top, jet.radius))
         if jet.frame in hands:
             adjacent.add(frozenset((f"jet_{jet.name}", f"{hands[jet.frame]}_upper_arm")))
     return shapes, adjacent

@@ -3,24 +3,16 @@
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import sys
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
 
 from motionkit.errors import RetargetError
-from motionkit.outputs import write_text_atomic
 from motionkit.recipes import argument
-from motionkit.retarget.batch import (
-    QUALITY,
-    ClipInput,
-    ClipResult,
-    resolve_inputs,
-    retarget_all,
-)
+from motionkit.retarget.batch import resolve_inputs, run_retarget
 from motionkit.retarget.config import RetargetConfig
+from motionkit.robot import load_robot
 
 RETARGET_EPILOG = """\
 INPUT is a .bvh file, an .amc file (its skeleton: <subject>.asf beside it, or the only .asf in
@@ -40,7 +32,9 @@ the centre of pressure the motion needs stays inside the feet's support, and sol
 again; the physics figures (motionkit dataset check-physics) go into each clip's metadata."""
 
 
-def add_commands(stages: argparse._SubParsersAction, robot_source: Any) -> None:
+def add_commands(
+    stages: argparse._SubParsersAction, robot_source: Callable[[argparse.ArgumentParser], None]
+) -> None:
     retarget = stages.add_parser(
         "retarget",
         help="human mocap (BVH, ASF/AMC, CMU clip ids) onto the robot with PlaCo IK",
@@ -107,81 +101,6 @@ def _retarget(args: argparse.Namespace) -> int:
     base = args.config.parent if args.config else Path.cwd()
     recipe = [str(base / c) if (base / c).exists() else c for c in config.clips]
     clips = resolve_inputs([*recipe, *args.inputs])
-    results = run_retarget(clips, args.out, config, jobs, (args.urdf, args.spec))
+    robot = load_robot(args.urdf, args.spec)
+    results = run_retarget(clips, args.out, config, jobs, robot)
     return 1 if any(r.output is None for r in results) else 0
-
-
-def run_retarget(
-    clips: list[ClipInput],
-    out: Path,
-    config: RetargetConfig,
-    jobs: int,
-    robot_source: tuple[Path | None, Path | None] = (None, None),
-) -> list[ClipResult]:
-    """Retarget `clips` into `out` with progress lines, the quality table and
-    OUT/retarget_summary.json; returns every clip's result (failed ones have no output)."""
-    print(f"retargeting {len(clips)} clip(s) into {out} with {min(jobs, len(clips))} job(s)")
-    results = retarget_all(clips, out, config, jobs, robot_source, report=_report_clip)
-    _print_table(results)
-    done = [r for r in results if r.output is not None]
-    if done:
-        summary = {
-            "config": config.to_dict(),
-            "clips": [_result_json(r) for r in results],
-        }
-        write_text_atomic(out / "retarget_summary.json", json.dumps(summary, indent=2))
-    failed = len(results) - len(done)
-    if failed:
-        print(f"{failed} of {len(results)} clip(s) failed; nothing written for them")
-    return results
-
-
-def _report_clip(result: ClipResult, done: int, total: int) -> None:
-    if result.output is None:
-        print(f"[{done}/{total}] {result.name}: failed: {result.error}", file=sys.stderr)
-    else:
-        rate = result.frames / result.seconds if result.seconds else 0.0
-        print(
-            f"[{done}/{total}] {result.name}: {result.frames} frames in {result.seconds:.2f} s "
-            f"({rate:.0f} frames/s) -> {result.output}",
-            flush=True,
-        )
-
-
-def _print_table(results: list[ClipResult]) -> None:
-    header = (
-        f"{'clip':<18} {'frames':>6} {'slide p95':>9} {'source':>7} {'sink':>6} {'limits':>6} "
-        f"{'feet':>6} {'knees':>6} {'clear':>7}  check"
-    )
-    print(f"\n{header}\n{'':<18} {'':>6} {'[cm/s]':>9} {'[cm/s]':>7} {'[mm]':>6} {'':>6} "
-          f"{'[cm]':>6} {'[cm]':>6} {'[cm]':>7}")  # fmt: skip
-    for r in results:
-        if r.output is None:
-            print(f"{r.name:<18} failed: {r.error}")
-            continue
-        m = r.metrics
-        violations = int(m["joint_position_violations"]) + int(m["joint_velocity_violations"])
-        problems = r.problems()
-        print(
-            f"{r.name:<18} {r.frames:>6} {100 * float(m['foot_slide_p95_m_s']):>9.2f} "
-            f"{100 * float(m['source_slide_p95_m_s']):>7.1f} "
-            f"{1000 * float(m['penetration_max_m']):>6.2f} {violations:>6d} "
-            f"{100 * float(m['feet_error_mean_m']):>6.2f} "
-            f"{100 * float(m['knees_error_mean_m']):>6.2f} "
-            f"{100 * float(m['closest_approach_m']):>7.1f}  "
-            f"{'ok' if not problems else 'beyond: ' + ', '.join(problems)}"
-        )
-    print(f"(clean: {', '.join(f'{k} <= {v}' for k, v in QUALITY.items())})")
-
-
-def _result_json(result: ClipResult) -> dict[str, Any]:
-    return {
-        "name": result.name,
-        "source": result.source,
-        "output": str(result.output) if result.output else None,
-        "frames": result.frames,
-        "seconds": result.seconds,
-        "stages_s": result.stages,
-        "metrics": result.metrics,
-        "error": result.error,
-    }

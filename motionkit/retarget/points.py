@@ -28,7 +28,10 @@ def meeting_point(model: RobotModel, joints: list[str]) -> Point:
     first joint; for one joint, the origin of its child frame (a point on its axis)."""
     missing = [j for j in joints if j not in model.joints]
     if missing:
-        raise RetargetError(f"{model.source}: no joint named {', '.join(missing)}")
+        raise RetargetError(
+            f"{model.source}: no joint named {', '.join(missing)} (name the robot's own in the "
+            "recipe's [points] table)"
+        )
     first = model.joints[joints[0]]
     if len(joints) == 1:
         return Point(first.child, np.zeros(3))

@@ -9,6 +9,7 @@ import numpy as np
 
 from motionkit.robot import mk1_1
 from motionkit.robot.geometry import invert, make_transform
+from motionkit.robot.spec import JetSpec, RobotSpec
 from motionkit.robot.urdf import Inertial, Joint, Link, RobotModel, Shape, load_urdf
 
 SOURCE_MODEL = "iCubGazeboV2_5"
@@ -28,10 +29,11 @@ def source_urdf() -> Path:
     return Path(icub_models.get_model_file(SOURCE_MODEL))
 
 
-def build_ironcub_model(keep_frames: tuple[str, ...] = ()) -> RobotModel:
+def build_ironcub_model(spec: RobotSpec) -> RobotModel:
     """The iRonCub URDF tree: iCubGazeboV2_5 without forearms, with the Mk1_1 joint origins,
-    inertials, jets, chest marker and sole corners; massless leaf links other than
-    `keep_frames` (sensor frames) are dropped; mesh paths point at the installed files."""
+    inertials, jets (drawn as the spec's cylinders), chest marker and sole corners; massless
+    leaf links other than the spec's frames are dropped; mesh paths point at the installed
+    files."""
     model = load_urdf(source_urdf())
     poses_before = model.link_poses()
     for link in mk1_1.REMOVED_SUBTREES:
@@ -48,9 +50,9 @@ def build_ironcub_model(keep_frames: tuple[str, ...] = ()) -> RobotModel:
         model.joints[added.joint] = Joint(
             added.joint, "fixed", added.parent, name, make_transform(added.xyz, added.rpy)
         )
-    for jet in (name for name in mk1_1.ADDED_LINKS if name.endswith("_jet_turbine")):
-        model.links[jet].visuals = [_jet_cylinder()]
-    _drop_massless_leaves(model, keep=set(keep_frames))
+    for jet in spec.jets:
+        model.links[jet.frame].visuals = [_jet_cylinder(jet)]
+    _drop_massless_leaves(model, keep=set(spec.frames))
     _carry_shapes(model, poses_before)
     _resolve_meshes(model, icub_models_share())
     model.name = "ironcub"
@@ -64,12 +66,10 @@ def _inertial(values: mk1_1.LinkInertial) -> Inertial:
     return Inertial(values.mass, make_transform(values.com_xyz, values.com_rpy), inertia)
 
 
-def _jet_cylinder() -> Shape:
+def _jet_cylinder(jet: JetSpec) -> Shape:
     geometry = ET.Element("geometry")
-    ET.SubElement(
-        geometry, "cylinder", radius=repr(mk1_1.JET_RADIUS), length=repr(mk1_1.JET_LENGTH)
-    )
-    return Shape(make_transform(xyz=(0.0, 0.0, -mk1_1.JET_LENGTH / 2)), geometry, JET_RGBA)
+    ET.SubElement(geometry, "cylinder", radius=repr(jet.radius), length=repr(jet.length))
+    return Shape(make_transform(xyz=(0.0, 0.0, -jet.length / 2)), geometry, JET_RGBA)
 
 
 def _drop_massless_leaves(model: RobotModel, keep: set[str]) -> None:

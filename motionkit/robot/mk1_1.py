@@ -399,8 +399,3 @@ for _side in ("l", "r"):
 
 # Links of iCubGazeboV2_5 that iRonCub does not have: the forearms (and wrists, hands below them).
 REMOVED_SUBTREES = ("l_forearm", "r_forearm")
-
-# The jets' meshes are not public: each jet is drawn as a cylinder from the nozzle (frame origin)
-# along -z, the direction of thrust; approximate size of a JetCat P250 class engine [m].
-JET_LENGTH = 0.35
-JET_RADIUS = 0.065

@@ -207,6 +207,6 @@ def ironcub() -> Robot:
     from motionkit.robot.ironcub_build import SOURCE_MODEL, build_ironcub_model
 
     spec = RobotSpec.builtin("ironcub")
-    model = build_ironcub_model(keep_frames=spec.frames)
+    model = build_ironcub_model(spec)
     origin = f"icub-models {version('icub-models')} {SOURCE_MODEL} with the iRonCub-Mk1_1 changes"
     return Robot(model, spec, origin)

@@ -38,9 +38,18 @@ class JetSpec:
     name: str
     frame: str
     t_max: float  # N
+    # The engine's body: a cylinder from the nozzle (frame origin) along -z, the direction of
+    # thrust [m]. 0: unknown (the retargeting then leaves the jet out of its clearance checks).
+    length: float = 0.0
+    radius: float = 0.0
 
     def __post_init__(self) -> None:
         check(self, RobotModelError, "> 0", "t_max")
+        check(self, RobotModelError, ">= 0", "length", "radius")
+        if (self.length > 0) != (self.radius > 0):
+            raise RobotModelError(
+                f"jet '{self.name}' needs both length and radius > 0 m, or neither"
+            )
 
 
 @dataclass(frozen=True)

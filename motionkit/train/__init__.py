@@ -1,1 +1,48 @@
-"""The slim AMP + PPO trainer on MuJoCo MJX."""
+"""The slim AMP + PPO trainer on MuJoCo MJX, for any robot with a spec.
+
+    from motionkit.robot import load_robot
+    from motionkit.train import TrainConfig, train_policy
+
+    robot = load_robot("robot.urdf", "robot.toml")       # no arguments: iRonCub
+    config = TrainConfig.from_toml("train/tiny_cpu.toml").select_priors([])
+    summary = train_policy(config, out, robot)           # OUT/summary.json, rollouts/, ...
+    figures = run_ablation(config, out, robot)           # the four prior settings
+
+`train_policy` is `motionkit.train.run.train` (a run in a folder, resumable; the config's
+PriorConfig tables name its priors); `make_env` builds the MJX environment of a config and
+`Trainer` its learner; `enable_compile_cache` keeps XLA's programs in the user cache. Configs
+import without the [train] extra (JAX, flax, optax, MuJoCo); the rest imports it on first use,
+and a missing one is a TrainError naming the extra (`require_train_extra` checks it up front).
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+from motionkit.train.config import PriorConfig, TrainConfig
+from motionkit.train.runtime import enable_compile_cache, require_train_extra
+
+# exported name -> (module, attribute); `train` itself is a module of this package
+_LAZY = {
+    "train_policy": ("run", "train"),
+    "make_env": ("run", "make_env"),
+    "run_ablation": ("ablation", "run_ablation"),
+    "Trainer": ("train", "Trainer"),
+}
+
+__all__ = [
+    "PriorConfig",
+    "TrainConfig",
+    "enable_compile_cache",
+    "require_train_extra",
+    *_LAZY,
+]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        require_train_extra(f"motionkit.train.{name}")
+        module, attribute = _LAZY[name]
+        return getattr(importlib.import_module(f"motionkit.train.{module}"), attribute)
+    raise AttributeError(f"module 'motionkit.train' has no attribute {name!r}")

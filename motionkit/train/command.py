@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
 from motionkit.errors import TrainError
-from motionkit.extras import require
 from motionkit.recipes import argument
+from motionkit.robot import load_robot
+from motionkit.train.runtime import enable_compile_cache, require_train_extra
 
 PRIOR_CHOICES = "walk,flight|walk|flight|none"
 
@@ -35,7 +37,9 @@ thrust usage (mean T / T_max), falls per episode, episode duration.
   motionkit train ablation --config paper_gpu --out runs/ablation"""
 
 
-def add_commands(stages: argparse._SubParsersAction) -> None:
+def add_commands(
+    stages: argparse._SubParsersAction, robot_source: Callable[[argparse.ArgumentParser], None]
+) -> None:
     parser = stages.add_parser(
         "train",
         help="train the walking-and-flying AMP policy on MJX (PPO + discriminator)",
@@ -45,7 +49,7 @@ def add_commands(stages: argparse._SubParsersAction) -> None:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    _common(parser, required=False)
+    _common(parser, robot_source, required=False)
     parser.add_argument("--resume", action="store_true", help="continue the run in --out")
     parser.set_defaults(handler=_train)
     actions = parser.add_subparsers(dest="train_command", metavar="ACTION")
@@ -59,11 +63,16 @@ def add_commands(stages: argparse._SubParsersAction) -> None:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    _common(ablation, priors=False)
+    _common(ablation, robot_source, priors=False)
     ablation.set_defaults(handler=_ablation)
 
 
-def _common(parser: argparse.ArgumentParser, priors: bool = True, required: bool = True) -> None:
+def _common(
+    parser: argparse.ArgumentParser,
+    robot_source: Callable[[argparse.ArgumentParser], None],
+    priors: bool = True,
+    required: bool = True,
+) -> None:
     # `train` checks --config and --out itself, so that `train ablation --config ...` parses
     parser.add_argument(
         "--config",
@@ -80,11 +89,7 @@ def _common(parser: argparse.ArgumentParser, priors: bool = True, required: bool
         )
     parser.add_argument("--iterations", type=int, help="override [run] iterations")
     parser.add_argument("--seed", type=int, help="override [run] seed")
-
-
-def require_train_extra() -> None:
-    require("train", "train", TrainError, ("jax", "flax", "optax", "mujoco"))
-    from motionkit.train.mjx import mjx  # noqa: F401  (quietly: no warp notice)
+    robot_source(parser)
 
 
 def parse_priors(text: str | None, available: list[str]) -> list[str]:
@@ -113,40 +118,29 @@ def _config(args: argparse.Namespace):  # -> TrainConfig
     return replace(config, run=run)
 
 
-def enable_compile_cache() -> None:
-    """Keep XLA's compiled programs in the user cache: a resumed run or the next setting of an
-    ablation skips most of the minutes MJX takes to compile."""
-    import jax
-
-    from motionkit.robot import cache_dir
-
-    jax.config.update("jax_compilation_cache_dir", str(cache_dir() / "jax"))
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", 2.0)
-
-
 def _train(args: argparse.Namespace) -> int:
     if args.config is None or args.out is None:
         raise TrainError("train needs --config TOML and --out DIR (see motionkit train --help)")
     require_train_extra()
-    from motionkit.robot import ironcub
     from motionkit.train.run import train
 
     config = _config(args)
     config = config.select_priors(parse_priors(args.priors, list(config.priors)))
+    robot = load_robot(args.urdf, args.spec)
     enable_compile_cache()
-    summary = train(config, args.out, ironcub(), resume=args.resume, progress=_print)
+    summary = train(config, args.out, robot, resume=args.resume, progress=_print)
     print(f"wrote {args.out}: {summary['iterations']} iterations in {summary['seconds']:.0f} s")
     return 0
 
 
 def _ablation(args: argparse.Namespace) -> int:
     require_train_extra()
-    from motionkit.robot import ironcub
     from motionkit.train.ablation import run_ablation
 
     config = _config(args)
+    robot = load_robot(args.urdf, args.spec)
     enable_compile_cache()
-    result = run_ablation(config, args.out, ironcub(), progress=_print)
+    result = run_ablation(config, args.out, robot, progress=_print)
     print(json.dumps(result["figures"], indent=2))
     print(f"wrote {args.out}/ablation.json and {args.out}/ablation.png")
     return 0

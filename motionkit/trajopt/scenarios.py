@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from motionkit.errors import TrajoptError
 from motionkit.jet_ident.p250 import P250_COEFFS, steady_throttle, steady_thrust
 from motionkit.trajopt.kinematics import GRAVITY
 from motionkit.trajopt.problem import Problem
@@ -50,8 +51,15 @@ def apply_scenario(problem: Problem) -> tuple[np.ndarray, float]:
     """Add the scenario's bounds and constraints; return the initial guess (scaled W, dt)."""
     config, lay, n = problem.config, problem.layout, problem.knots
     scenario = config.scenario
+    robot = problem.functions.kinematics.robot
+    lift = sum(jet.t_max for jet in robot.spec.jets) * scenario.thrust_fraction
+    if "hover" in (scenario.start, scenario.end) and lift < lay.mass * GRAVITY:
+        raise TrajoptError(
+            f"{robot.name} cannot hover: its jets lift at most {lift:.0f} N (t_max of the spec "
+            f"x scenario.thrust_fraction), its weight is {lay.mass * GRAVITY:.0f} N"
+        )
     stand = standing(problem)
-    forward = np.array(problem.functions.kinematics.robot.spec.forward)
+    forward = np.array(robot.spec.forward)
     idle = float(steady_thrust(P250_COEFFS, 0.0))
     last = n - 1
 

@@ -4,12 +4,17 @@
     from motionkit.viewer import ViewerApp, resolve_clips
     app = ViewerApp(robot, resolve_clips("walk.mcap"))   # server on 127.0.0.1, print(app.url)
 
+resolve_clips gives a ClipInfo per checked clip; Playback is the timeline the app drives.
+
 sources: PATH -> checked clips; playback: the timeline; posing: link poses per frame; meshes: the
 robot's visuals (cached); scene: robot and overlays in viser; skeleton: a retargeted clip's human
 beside the robot; app: the server and its page.
 Importing `motionkit.viewer.app` needs the [viewer] extra (viser); the rest needs only numpy.
+`ViewerApp` is imported on first use (a ViewerError naming the extra without it).
 """
 
+from motionkit.errors import ViewerError
+from motionkit.extras import require
 from motionkit.viewer.playback import Playback
 from motionkit.viewer.sources import ClipInfo, resolve_clips
 
@@ -18,6 +23,7 @@ __all__ = ["ClipInfo", "Playback", "ViewerApp", "resolve_clips"]
 
 def __getattr__(name: str) -> object:
     if name == "ViewerApp":  # imports viser only when asked for
+        require("viewer", "motionkit.viewer.ViewerApp", ViewerError)
         from motionkit.viewer.app import ViewerApp
 
         return ViewerApp

@@ -8,9 +8,12 @@ from mocap_synth import arms_down, mini_bvh
 
 from motionkit import recipes
 from motionkit.cli import main
+from motionkit.dataset import read
 from motionkit.errors import PipelineError
+from motionkit.pipeline import run_pipeline
 from motionkit.pipeline.cache import digest, run_cached
 from motionkit.pipeline.config import PipelineConfig
+from motionkit.robot import load_robot
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -185,3 +188,38 @@ def test_pipeline_end_to_end_then_cached(tmp_path: Path, capsys) -> None:
     err = capsys.readouterr().err
     assert "broken.bvh" in err
     assert not (out / "walk").exists() and not (out / ".pipeline" / "retarget.json").exists()
+
+
+def test_every_stage_of_a_run_gets_its_robot(
+    tmp_path: Path, toy_robot_files: tuple[Path, Path], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The toy biped through retarget (recorded, not solved: the toy has one arm) and trajopt,
+    whose take-off is written for it; another robot is another key."""
+    pytest.importorskip("casadi")
+    import motionkit.retarget.batch as batch
+
+    monkeypatch.setenv("MOTIONKIT_TRAJOPT_COMPILE", "-O0")  # seconds, not minutes
+    given = []
+    monkeypatch.setattr(batch, "run_retarget", lambda *args: given.append(args[4]) or [])
+    mocap = tmp_path / "mocap"
+    mocap.mkdir()
+    (mocap / "walk.bvh").write_text(mini_bvh(arms_down(40)))
+    config = PipelineConfig.from_toml(tiny_recipes(tmp_path))
+    robot, out = load_robot(*toy_robot_files), tmp_path / "out"
+    outcomes = run_pipeline(config, out, robot, mocap_dir=mocap, until="trajopt")
+    assert [o.status for o in outcomes] == ["ran", "ran"] and given == [robot]
+    clip = read(out / "flight" / "takeoff.mcap")
+    assert (clip.metadata.robot, clip.metadata.robot_hash) == ("toy", robot.model_hash)
+    assert clip.joint_positions.shape[1] == 7 and clip.thrust.shape[1] == 2
+    summary = json.loads((out / "pipeline_summary.json").read_text())
+    assert (summary["robot"], summary["robot_hash"]) == ("toy", robot.model_hash)
+
+    again = run_pipeline(config, out, robot, mocap_dir=mocap, until="retarget")
+    assert again[0].status == "cached"
+    heavier = toy_robot_files[0].with_name("heavier.urdf")
+    heavier.write_text(
+        toy_robot_files[0].read_text().replace('mass value="4.0"', 'mass value="5.0"')
+    )
+    other = run_pipeline(config, out, load_robot(heavier, toy_robot_files[1]), mocap_dir=mocap,
+                         until="retarget")  # fmt: skip
+    assert other[0].status == "ran" and given[-1].total_mass == pytest.approx(12.0)

@@ -1,5 +1,7 @@
 """Capsules as URDF collision cylinders: placed where the capsules are (checked with pinocchio)."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -7,7 +9,7 @@ from motionkit.retarget.bodies import capsules, host_link, with_collision_cylind
 from motionkit.retarget.config import RetargetConfig
 from motionkit.retarget.metrics import Kinematics
 from motionkit.retarget.points import robot_points
-from motionkit.robot import ironcub
+from motionkit.robot import Robot, ironcub
 
 pin = pytest.importorskip("pinocchio")
 
@@ -45,6 +47,23 @@ def test_cylinders_follow_the_capsules(tmp_path) -> None:
             # about 0.3 mm, so it is not exactly fixed in the thigh
             assert np.allclose(ends, [start, end], atol=1e-3), capsule.name
             assert geometry.geometryObjects[index].geometry.radius == capsule.radius
+
+
+def test_jet_capsules_have_the_spec_size_and_unsized_jets_none() -> None:
+    robot = ironcub()
+    points = robot_points(robot, RetargetConfig().points)
+    jets = {c.name: c for c in capsules(robot, points)[0] if c.name.startswith("jet_")}
+    assert sorted(jets) == sorted(f"jet_{jet.name}" for jet in robot.spec.jets)
+    for jet in robot.spec.jets:
+        capsule = jets[f"jet_{jet.name}"]
+        assert capsule.start.link == capsule.end.link == jet.frame
+        np.testing.assert_array_equal(capsule.end.offset, [0.0, 0.0, -0.35])
+        assert capsule.radius == 0.065
+    unsized = replace(
+        robot.spec, jets=tuple(replace(j, length=0.0, radius=0.0) for j in robot.spec.jets)
+    )
+    bare = Robot(robot.model, unsized, "iRonCub without jet sizes")
+    assert not [c for c in capsules(bare, points)[0] if c.name.startswith("jet_")]
 
 
 def _object_of(geometry, host, shapes, hosts, capsule) -> int:

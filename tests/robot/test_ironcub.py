@@ -111,6 +111,17 @@ def test_jet_masses_and_limits() -> None:
     assert limits.lower[index("l_knee")] == pytest.approx(np.deg2rad(-124.0), abs=1e-3)
 
 
+def test_jets_are_drawn_at_the_size_the_spec_gives() -> None:
+    robot = ironcub()
+    for jet in robot.spec.jets:
+        assert (jet.length, jet.radius) == (0.35, 0.065)
+        (visual,) = robot.model.links[jet.frame].visuals
+        cylinder = visual.geometry.find("cylinder")
+        assert float(cylinder.get("length")) == jet.length
+        assert float(cylinder.get("radius")) == jet.radius
+        np.testing.assert_allclose(visual.origin[:3, 3], [0.0, 0.0, -jet.length / 2])
+
+
 @pytest.mark.parametrize(
     ("q", "expected", "com"),
     [

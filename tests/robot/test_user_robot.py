@@ -83,6 +83,16 @@ def _write(tmp_path: Path, urdf: str, spec: str = TOY_SPEC) -> tuple[Path, Path]
             TOY_SPEC.replace("t_max = 100.0\n", "", 1),
             "[jets[0]]: missing 't_max'",
         ),
+        (
+            toy_biped_urdf(),
+            TOY_SPEC.replace("t_max = 100.0\n", "t_max = 100.0\nlength = 0.2\n", 1),
+            "jet 'a' needs both length and radius > 0 m, or neither",
+        ),
+        (
+            toy_biped_urdf(),
+            TOY_SPEC.replace("t_max = 100.0\n", 't_max = 100.0\nradius = "wide"\n', 1),
+            "[jets[0]]: 'radius' should be float",
+        ),
         (toy_biped_urdf(), TOY_SPEC + "[limits]\nvelocity = 3\n", "unknown keys ['velocity']"),
         (toy_biped_urdf(), "name = [", "not valid TOML"),
         (

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from motionkit import recipes
+from motionkit.cli import add_robot_source
 from motionkit.errors import TrajoptError
 from motionkit.trajopt.command import add_commands
 from motionkit.trajopt.library import clip_name, read_library
@@ -22,7 +23,7 @@ LIBRARY = RECIPES / "library.toml"
 
 def cli(*argv: str) -> int:
     parser = argparse.ArgumentParser()
-    add_commands(parser.add_subparsers())
+    add_commands(parser.add_subparsers(), add_robot_source)
     args = parser.parse_args(["trajopt", *argv])
     return args.handler(args) or 0
 

@@ -14,9 +14,9 @@ from motionkit import recipes
 from motionkit.errors import TrajoptError
 from motionkit.robot.model import ironcub
 from motionkit.trajopt.checks import motion_figures
-from motionkit.trajopt.command import summary_line
 from motionkit.trajopt.config import Replay, TrajoptConfig
 from motionkit.trajopt.replay import Simulation, allocate, reference, replay, stabilised_replay
+from motionkit.trajopt.runner import summary_line
 from motionkit.trajopt.solve import Solution, solve
 
 RECIPES = recipes.ROOT / "trajopt"

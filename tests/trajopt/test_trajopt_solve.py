@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from motionkit import recipes
+from motionkit.cli import add_robot_source
 from motionkit.dataset import Trajectory, corner_names, read
 from motionkit.dataset.validate import validate_clip
 from motionkit.robot import THRUST_AXIS
@@ -36,7 +37,7 @@ def small(recipe: str, knots: int = 16) -> TrajoptConfig:
 
 def cli(*argv: str) -> int:
     parser = argparse.ArgumentParser()
-    add_commands(parser.add_subparsers())
+    add_commands(parser.add_subparsers(), add_robot_source)
     args = parser.parse_args(["trajopt", *argv])
     return args.handler(args) or 0
 

@@ -1,0 +1,66 @@
+"""One pipeline run: the stages in order for one robot, each run or found cached, then the
+table of what was made and OUT/pipeline_summary.json."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+from motionkit.errors import MotionkitError, PipelineError
+from motionkit.outputs import write_text_atomic
+from motionkit.pipeline.cache import Outcome
+from motionkit.pipeline.config import PipelineConfig
+from motionkit.pipeline.stages import STAGES, Context
+from motionkit.robot import Robot
+
+STAGE_NAMES = tuple(name for name, _ in STAGES)
+
+
+def run_pipeline(
+    config: PipelineConfig,
+    out: Path,
+    robot: Robot,
+    *,
+    mocap_dir: Path | None = None,
+    full: bool = False,
+    force: bool = False,
+    fetch: bool = False,
+    until: str | None = None,
+) -> list[Outcome]:
+    """Run every stage up to `until` (default: all) into its folder of `out` for `robot`;
+    PipelineError naming the stage when one fails (what it wrote is removed)."""
+    if until is not None and until not in STAGE_NAMES:
+        raise PipelineError(f"unknown stage '{until}'; the stages: {', '.join(STAGE_NAMES)}")
+    ctx = Context(config, Path(out).resolve(), robot, mocap_dir, full, force, fetch)
+    start = time.perf_counter()
+    outcomes = []
+    last = STAGE_NAMES.index(until or STAGE_NAMES[-1])
+    for number, (name, stage) in enumerate(STAGES[: last + 1], 1):
+        print(f"\n=== [{number}/{last + 1}] {name}", flush=True)
+        tick = time.perf_counter()
+        try:
+            outcome = stage(ctx)
+        except MotionkitError as exc:  # bad input or a failed solve; a bug keeps its traceback
+            seconds = time.perf_counter() - tick
+            raise PipelineError(f"stage {name} failed after {seconds:.0f} s: {exc}") from exc
+        outcomes.append(outcome)
+        if outcome.status == "cached":
+            print(f"cached (key {outcome.key}): {outcome.made}")
+        else:
+            print(f"=== {name} done in {outcome.seconds:.0f} s: {outcome.made}")
+    total = time.perf_counter() - start
+    summary = {"config": str(config.source), "out": str(ctx.out), "robot": robot.name,
+               "robot_hash": robot.model_hash, "seconds": round(total, 1),
+               "stages": [o.to_dict() for o in outcomes]}  # fmt: skip
+    write_text_atomic(ctx.out / "pipeline_summary.json", json.dumps(summary, indent=2) + "\n")
+    _print_table(outcomes, total)
+    return outcomes
+
+
+def _print_table(outcomes: list[Outcome], total: float) -> None:
+    print(f"\n{'stage':<10} {'status':<7} {'time':>7}  {'output':<34} made")
+    for o in outcomes:
+        when = f"{o.seconds:.0f} s" if o.status == "ran" else "-"
+        print(f"{o.stage:<10} {o.status:<7} {when:>7}  {o.output:<34} {o.made}")
+    print(f"total {total:.0f} s")
