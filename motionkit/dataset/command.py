@@ -121,21 +121,27 @@ def _info(args: argparse.Namespace) -> int:
         return 0
     print(f"{'clip':<28} {'kind':<9} {'frames':>8} {'seconds':>9} {'Hz':>7}  generator  source")
     for row in rows:
-        source = row["source"]
+        source = {k: _printable(v) for k, v in row["source"].items()}
         origin = source["clip"] or source["file"] or "-"
         print(
-            f"{Path(row['path']).stem:<28} {row['kind']:<9} {row['frames']:>8} "
+            f"{_printable(Path(row['path']).stem):<28} {row['kind']:<9} {row['frames']:>8} "
             f"{row['duration_s']:>9.2f} {row['rate_hz']:>7.1f}  {row['generator']:<9}  {origin}"
             + (f" ({source['licence']})" if source["licence"] else "")
         )
         for name, value in row["metrics"].items():
-            print(f"{'':<30}{name} = {value}")
+            print(f"{'':<30}{_printable(name)} = {_printable(str(value))}")
     labels: dict[str, float] = {}
     for clip in dataset.clips:
         labels[clip.label] = labels.get(clip.label, 0.0) + clip.duration
     summary = ", ".join(f"{k} {v:.1f} s" for k, v in sorted(labels.items()))
     print(f"\n{len(dataset)} clips, {dataset.duration:.1f} s: {summary}")
     return 0
+
+
+def _printable(text: str) -> str:
+    """A clip's text for the terminal: control characters (escape sequences, newlines) shown
+    escaped, not sent."""
+    return "".join(c if c.isprintable() else ascii(c)[1:-1] for c in text)
 
 
 def _check_sound(paths: list[Path]) -> None:

@@ -205,7 +205,10 @@ def _link(asf: Asf, hierarchy: list[tuple[int, list[str]]]) -> None:
         stack.extend(reversed(children.get(name, [])))
     orphans = [b for b in asf.bones if b not in ordered]
     if orphans:
-        raise MocapError(f"{asf.path}: bones not reachable from root in :hierarchy: {orphans}")
+        cycle = " (their parents form a cycle)" if all(b in asf.parent for b in orphans) else ""
+        raise MocapError(
+            f"{asf.path}: bones not reachable from root in :hierarchy: {orphans}{cycle}"
+        )
     asf.bones = {name: asf.bones[name] for name in ordered}
 
 
@@ -237,16 +240,20 @@ def read_amc(path: Path, asf: Asf) -> tuple[Array, dict[str, Array], bool]:
 
 
 def _check_numbers(numbers: Array, path: Path) -> None:
-    """Frames numbered consecutively, or a MocapError naming the first two that are not."""
-    steps = np.flatnonzero(np.diff(numbers) != 1)
-    if not steps.size:
+    """Frames numbered consecutively, or a MocapError naming the first that are not."""
+    steps = np.diff(numbers)
+    if np.all(steps == 1):
         return
-    before, after = int(numbers[steps[0]]), int(numbers[steps[0] + 1])
-    if after == before:
-        problem = f"frame {after} appears twice"
-    elif after < before:
-        problem = f"frame {after} comes after frame {before} (frames out of order)"
+    unique, counts = np.unique(numbers, return_counts=True)
+    if counts.max() > 1:
+        k = int(np.argmax(counts > 1))
+        problem = f"frame {int(unique[k])} appears {counts[k]} times"
+    elif np.any(steps < 0):
+        k = int(np.argmax(steps < 0))
+        problem = f"frame {int(numbers[k + 1])} comes after frame {int(numbers[k])} (out of order)"
     else:
+        k = int(np.argmax(steps > 1))
+        before, after = int(numbers[k]), int(numbers[k + 1])
         problem = f"frames {before + 1} to {after - 1} are missing (frame {after} follows {before})"
     raise MocapError(f"{path}: {problem}; AMC frames must be numbered consecutively")
 

@@ -238,11 +238,14 @@ def leg_length(skeleton_rest: Array, names: tuple[str, ...], mapping: Mapping[st
     return float(np.mean(lengths))
 
 
-def units_from_leg(skeleton_rest: Array, names: tuple[str, ...], mapping: Mapping[str, str]) -> str:
-    """The unit (key of UNITS) that makes the rest-pose leg (hip-knee-ankle) closest to 0.85 m."""
-    leg = leg_length(skeleton_rest, names, mapping)
+def units_from_leg(leg: float, source: Path) -> str:
+    """The unit (key of UNITS) that makes a rest-pose leg (hip-knee-ankle) of `leg` file units
+    closest to 0.85 m."""
     if not 0 < leg < math.inf:
-        raise MocapError(f"cannot detect units: the rest-pose legs are {leg:g} long; pass units=")
+        raise MocapError(
+            f"{source}: cannot detect units: the rest-pose legs are {leg:g} file units long; "
+            "pass units="
+        )
     return min(UNITS, key=lambda unit: abs(math.log(leg * UNITS[unit] / LEG_LENGTH)))
 
 
@@ -303,17 +306,13 @@ def build_clip(
     landmark_map = naming.resolve(names, mapping, source)
     with np.errstate(over="ignore", invalid="ignore"):  # huge values are refused below
         rest = Skeleton(names, parents, offsets).rest_positions()
-        detect = units is None
-        if detect:
-            units = units_from_leg(rest, names, landmark_map)
-        scale = _unit_scale(units, source)
+        leg = leg_length(rest, names, landmark_map)
+        scale = _unit_scale(units_from_leg(leg, source) if units is None else units, source)
         moves = {"root position": root * scale}
         if translations is not None:
             moves["a joint translation"] = translations * scale
-        leg = leg_length(rest, names, landmark_map) * scale
-        _check_size(
-            source, leg, LEG_RANGE if detect else (0.0, MAX_EXTENT), names, offsets * scale, moves
-        )
+        legs = LEG_RANGE if units is None else (0.0, MAX_EXTENT)
+        _check_size(source, leg * scale, legs, names, offsets * scale, moves)
 
     a = Y_UP_TO_Z_UP
     offsets = offsets @ a.T * scale

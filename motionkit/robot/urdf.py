@@ -232,12 +232,13 @@ def _check_tree(model: RobotModel) -> None:
 # -- parsing ---------------------------------------------------------------------------------
 def _floats(text: str | None, default: str, where: str, count: int) -> Array:
     words = (text or default).split()
+    expected = "a finite number" if count == 1 else f"{count} finite numbers"
     try:
         values = np.array([float(v) for v in words])
     except ValueError:
-        raise RobotModelError(f"{where}: expected {count} numbers, got {text!r}") from None
+        raise RobotModelError(f"{where}: expected {expected}, got {text!r}") from None
     if len(values) != count or not np.all(np.isfinite(values)):
-        raise RobotModelError(f"{where}: expected {count} finite numbers, got {text!r}")
+        raise RobotModelError(f"{where}: expected {expected}, got {text!r}")
     return values
 
 

@@ -131,6 +131,13 @@ class ViewerApp:
             self.picker.value = self._clip_names()[index]
             self._set_clip(motion)
 
+    def pick(self, name: str) -> None:
+        """Show the clip labelled `name` in the picker, or say on the page why it cannot be."""
+        try:
+            self.select_clip(self._clip_names().index(name))
+        except ViewerError as exc:  # a clip corrupted after the start: say so, keep on
+            self.info.content = f"**cannot show {literal(name)}**: {literal(str(exc))}"
+
     def current_pose(self) -> dict[str, Array]:
         """World pose (4, 4) of every link as shown now."""
         with self._lock:
@@ -186,12 +193,7 @@ class ViewerApp:
         @self.picker.on_update
         def _(event: viser.GuiEvent) -> None:
             if event.client is not None:
-                try:
-                    self.select_clip(self._clip_names().index(self.picker.value))
-                except ViewerError as exc:  # a clip corrupted after the start: say so, keep on
-                    self.info.content = (
-                        f"**cannot show {literal(self.picker.value)}**: {literal(str(exc))}"
-                    )
+                self.pick(self.picker.value)
 
         @self.slider.on_update
         def _(event: viser.GuiEvent) -> None:
