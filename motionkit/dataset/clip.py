@@ -15,9 +15,11 @@ File layout (MCAP, zstd-compressed chunks, indexed, with CRCs):
 from __future__ import annotations
 
 import json
+import math
+import re
 import struct
 import zlib
-from dataclasses import asdict
+from dataclasses import asdict, fields
 from io import BytesIO
 from pathlib import Path
 from typing import IO, Any
@@ -47,6 +49,7 @@ from motionkit.dataset.trajectory import (
     frame_shape,
 )
 from motionkit.errors import DatasetError
+from motionkit.inputs import open_input
 from motionkit.outputs import atomic_output
 from motionkit.robot import Robot
 from motionkit.robot.geometry import from_rotation
@@ -218,7 +221,7 @@ def read(path: Path | str, start: float | None = None, end: float | None = None)
     only the chunks that hold them; a whole read also checks the file's CRCs."""
     path = Path(path)
     try:
-        with open(path, "rb") as handle:
+        with open_input(path, DatasetError, "the clip") as handle:
             if start is None and end is None:
                 buffer = handle.read()
                 _check_file_crcs(buffer, path)  # covers every chunk: no need to check each
@@ -229,10 +232,11 @@ def read(path: Path | str, start: float | None = None, end: float | None = None)
 
 
 def read_metadata(path: Path | str) -> tuple[Metadata, dict[str, str]]:
-    """The clip's metadata and its raw record (frames, rate, names...), without the motion."""
+    """The clip's metadata and its raw record (frames, rate, names...), without the motion;
+    every field of the record is checked (types, ranges)."""
     path = Path(path)
     try:
-        with open(path, "rb") as handle:
+        with open_input(path, DatasetError, "the clip") as handle:
             record = _index(handle, path).record
     except OSError as exc:
         raise DatasetError(f"{path}: cannot read ({exc.strerror})") from exc
@@ -244,7 +248,7 @@ def read_urdf(path: Path | str) -> str:
     from mcap.reader import make_reader
 
     path = Path(path)
-    with open(path, "rb") as handle:
+    with open_input(path, DatasetError, "the clip") as handle:
         try:
             for attachment in make_reader(handle, validate_crcs=True).iter_attachments():
                 if attachment.name.endswith(".urdf"):
@@ -304,35 +308,79 @@ _REQUIRED = (
 
 
 def _metadata(record: dict[str, str], path: Path) -> Metadata:
+    """The Metadata of a record whose every field has its type (a DatasetError otherwise)."""
     missing = [key for key in _REQUIRED if key not in record]
     if missing:
         raise DatasetError(f"{path}: metadata record lacks {', '.join(map(repr, missing))}")
-
-    def field(key: str) -> str:
-        return record[key]
-
-    def parsed(key: str) -> Any:
-        try:
-            return json.loads(field(key))
-        except json.JSONDecodeError as exc:
-            raise DatasetError(f"{path}: metadata '{key}' is not valid JSON ({exc})") from exc
-
-    if field("format") != FORMAT:
+    if record["format"] != FORMAT:
         raise DatasetError(f"{path}: format '{record['format']}', this motionkit reads {FORMAT}")
-    source = parsed("source")
+    for key in ("robot", "robot_hash"):
+        if not record[key].strip():
+            raise DatasetError(f"{path}: metadata '{key}' is empty")
+    if not re.fullmatch(r"[1-9][0-9]*", record["frames"]):
+        raise _wrong(path, "frames", "a whole number of frames (1 or more)", record["frames"])
+    for key in ("rate", "duration"):
+        if not 0 <= _float(record[key]) < math.inf:
+            raise _wrong(path, key, "a finite number >= 0", record[key])
+    for key in (*NAME_FIELDS, "landmark_parents", *(f"has_{name}" for name in OPTIONAL)):
+        _optional_json(record, key, None, path)  # type-checked (see _JSON_TYPES)
+    source = _json(record, "source", path)
+    known = {f.name for f in fields(Source)}
+    if set(source) - known or not all(isinstance(v, str) for v in source.values()):
+        raise _wrong(path, "source", f"an object of strings with keys {sorted(known)}", source)
     try:
         return Metadata(
-            robot=field("robot"),
-            robot_hash=field("robot_hash"),
-            kind=field("kind"),
-            generator=field("generator"),
+            robot=record["robot"],
+            robot_hash=record["robot_hash"],
+            kind=record["kind"],
+            generator=record["generator"],
             source=Source(**source),
-            config=parsed("config"),
-            metrics=parsed("metrics"),
-            motionkit_version=field("motionkit_version"),
+            config=_json(record, "config", path),
+            metrics=_json(record, "metrics", path),
+            motionkit_version=record["motionkit_version"],
         )
-    except TypeError as exc:
-        raise DatasetError(f"{path}: metadata 'source' has unexpected keys {source}") from exc
+    except DatasetError as exc:
+        raise DatasetError(f"{path}: {exc}") from None
+
+
+# The type of each JSON field of the metadata record: (check, what the message says).
+_JSON_TYPES: dict[str, tuple[Any, str]] = {
+    **{name: (lambda v: _is_list(v, str), "a list of names") for name in NAME_FIELDS},
+    "landmark_parents": (lambda v: _is_list(v, int), "a list of whole numbers"),
+    **{f"has_{name}": (lambda v: isinstance(v, bool), "true or false") for name in OPTIONAL},
+    "source": (lambda v: isinstance(v, dict), "an object"),
+    "config": (lambda v: isinstance(v, dict), "an object"),
+    "metrics": (lambda v: isinstance(v, dict), "an object"),
+}
+
+
+def _is_list(value: Any, kind: type) -> bool:
+    return isinstance(value, list) and all(
+        isinstance(v, kind) and not isinstance(v, bool) for v in value
+    )
+
+
+def _float(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        return math.nan
+
+
+def _wrong(path: Path, key: str, expected: str, value: Any) -> DatasetError:
+    return DatasetError(f"{path}: metadata '{key}' should be {expected}, got {value!r:.80}")
+
+
+def _json(record: dict[str, str], key: str, path: Path) -> Any:
+    """The JSON value of a record field, checked against its type in _JSON_TYPES."""
+    try:
+        value = json.loads(record[key])
+    except json.JSONDecodeError as exc:
+        raise DatasetError(f"{path}: metadata '{key}' is not valid JSON ({exc})") from exc
+    test, expected = _JSON_TYPES[key]
+    if not test(value):
+        raise _wrong(path, key, expected, value)
+    return value
 
 
 def _read(
@@ -362,7 +410,8 @@ def _read(
                 )
             parts[name].append(values.reshape(shape))
     if not parts["time"]:
-        raise DatasetError(f"{path}: no /motion frames in the requested range")
+        where = "" if start is None and end is None else " in the requested range"
+        raise DatasetError(f"{path}: no /motion frames{where}")
     merged = {k: np.concatenate(v) for k, v in parts.items() if v}
     if "contacts" in merged:
         merged["contacts"] = merged["contacts"].astype(bool)
@@ -374,17 +423,31 @@ def _read(
         if np.prod(shapes[name]) != 0:  # only zero-width arrays (no jets, no feet) may be absent
             raise DatasetError(f"{path}: /motion messages lack {name}")
         merged[name] = np.zeros((len(merged["time"]), *shapes[name]))
-    return Trajectory(**merged, **names, landmark_parents=parents, metadata=metadata)
+    trajectory = Trajectory(**merged, **names, landmark_parents=parents, metadata=metadata)
+    if start is None and end is None:
+        _check_record(trajectory, index.record, path)
+    return trajectory
+
+
+def _check_record(trajectory: Trajectory, record: dict[str, str], path: Path) -> None:
+    """The record's frames, rate and duration are the motion's (times not finite are left to
+    `dataset validate`'s finite-values check)."""
+    if int(record["frames"]) != trajectory.frames:
+        raise DatasetError(
+            f"{path}: the metadata says {record['frames']} frames, /motion holds "
+            f"{trajectory.frames}"
+        )
+    if not np.all(np.isfinite(trajectory.time)):
+        return
+    for key in ("rate", "duration"):
+        stated, actual = float(record[key]), getattr(trajectory, key)
+        if not math.isclose(stated, actual, rel_tol=1e-6, abs_tol=1e-9):
+            raise DatasetError(f"{path}: the metadata says {key} {stated:g}, the motion {actual:g}")
 
 
 def _optional_json(record: dict[str, str], key: str, default: Any, path: Path) -> Any:
     """A JSON value of the metadata record, `default` when the key is absent (older files)."""
-    if key not in record:
-        return default
-    try:
-        return json.loads(record[key])
-    except json.JSONDecodeError as exc:
-        raise DatasetError(f"{path}: metadata '{key}' is not valid JSON ({exc})") from exc
+    return _json(record, key, path) if key in record else default
 
 
 def _messages(

@@ -32,12 +32,13 @@ class ClipEntry:
 
 
 def find_clips(paths: Sequence[Path | str]) -> list[Path]:
-    """MCAP files named directly or found (recursively, sorted) in the named folders."""
+    """MCAP files named directly or found (recursively, sorted) in the named folders (anything
+    that is not a regular file is refused when read)."""
     found: list[Path] = []
     for path in map(Path, paths):
         if path.is_dir():
             found += sorted(path.rglob("*.mcap"))
-        elif path.is_file():
+        elif path.exists():
             found.append(path)
         else:
             raise DatasetError(f"{path}: no such file or folder")

@@ -12,7 +12,7 @@ from motionkit.dataset.clip import read
 from motionkit.dataset.collection import MotionDataset, find_clips
 from motionkit.dataset.export import FORMATS, export
 from motionkit.dataset.physics import PhysicsConfig, check_physics
-from motionkit.dataset.validate import Check, validate_clip
+from motionkit.dataset.validate import Check, read_sound, read_valid, validate_clip
 from motionkit.errors import DatasetError
 
 PHYSICS_HELP = (
@@ -35,10 +35,20 @@ def add_commands(stages: argparse._SubParsersAction, robot_source: Any) -> None:
     )
     commands = dataset.add_subparsers(dest="dataset_command", required=True, metavar="ACTION")
     info = commands.add_parser(
-        "info", help="clips, durations, rates, labels, sources, metrics", epilog=EPILOG
+        "info",
+        help="clips, durations, rates, labels, sources, metrics",
+        description="List the clips. Each is read whole first (schema, metadata, CRCs, "
+        "increasing times, finite values, unit quaternions): a damaged clip is an error naming "
+        "it, not a row.",
+        epilog=EPILOG,
     )
     info.add_argument("paths", nargs="+", type=Path, metavar="PATH")
     info.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    info.add_argument(
+        "--index-only",
+        action="store_true",
+        help="read only each clip's index and metadata (fast; a damaged motion goes unnoticed)",
+    )
     info.set_defaults(handler=_info)
 
     validate = commands.add_parser(
@@ -75,17 +85,22 @@ def add_commands(stages: argparse._SubParsersAction, robot_source: Any) -> None:
         help="write clips as .npz arrays or amp-rsl-rl .npy dicts",
         description="npz: every array, the names and the metadata (JSON). amp-rsl-rl: the .npy "
         "dict that amp-rsl-rl's motion loader reads (joints_list, joint_positions, root_position, "
-        "root_quaternion in x,y,z,w order, fps).",
+        "root_quaternion in x,y,z,w order, fps). Every clip must pass the checks of `dataset "
+        "validate` against the robot (iRonCub unless --urdf/--spec name another) before "
+        "anything is written.",
         epilog=EPILOG,
     )
     exporter.add_argument("paths", nargs="+", type=Path, metavar="PATH")
     exporter.add_argument("--format", choices=FORMATS, required=True)
     exporter.add_argument("--out", type=Path, required=True, help="output folder")
+    robot_source(exporter)
     exporter.set_defaults(handler=_export)
 
 
 def _info(args: argparse.Namespace) -> int:
     dataset = MotionDataset(args.paths)
+    if not args.index_only:
+        _check_sound([clip.path for clip in dataset.clips])
     rows = [
         {
             "path": str(clip.path),
@@ -106,21 +121,41 @@ def _info(args: argparse.Namespace) -> int:
         return 0
     print(f"{'clip':<28} {'kind':<9} {'frames':>8} {'seconds':>9} {'Hz':>7}  generator  source")
     for row in rows:
-        source = row["source"]
+        source = {k: _printable(v) for k, v in row["source"].items()}
         origin = source["clip"] or source["file"] or "-"
         print(
-            f"{Path(row['path']).stem:<28} {row['kind']:<9} {row['frames']:>8} "
+            f"{_printable(Path(row['path']).stem):<28} {row['kind']:<9} {row['frames']:>8} "
             f"{row['duration_s']:>9.2f} {row['rate_hz']:>7.1f}  {row['generator']:<9}  {origin}"
             + (f" ({source['licence']})" if source["licence"] else "")
         )
         for name, value in row["metrics"].items():
-            print(f"{'':<30}{name} = {value}")
+            print(f"{'':<30}{_printable(name)} = {_printable(str(value))}")
     labels: dict[str, float] = {}
     for clip in dataset.clips:
         labels[clip.label] = labels.get(clip.label, 0.0) + clip.duration
     summary = ", ".join(f"{k} {v:.1f} s" for k, v in sorted(labels.items()))
     print(f"\n{len(dataset)} clips, {dataset.duration:.1f} s: {summary}")
     return 0
+
+
+def _printable(text: str) -> str:
+    """A clip's text for the terminal: control characters (escape sequences, newlines) shown
+    escaped, not sent."""
+    return "".join(c if c.isprintable() else ascii(c)[1:-1] for c in text)
+
+
+def _check_sound(paths: list[Path]) -> None:
+    """A DatasetError naming every clip that is not sound (see `read_sound`)."""
+    problems = []
+    for path in paths:
+        try:
+            read_sound(path)
+        except DatasetError as exc:
+            problems.append(str(exc))
+    if len(problems) == 1:
+        raise DatasetError(problems[0])
+    if problems:
+        raise DatasetError(f"{len(problems)} damaged clips: {'; '.join(problems)}")
 
 
 def _validate(args: argparse.Namespace) -> int:
@@ -210,7 +245,11 @@ def _export(args: argparse.Namespace) -> int:
     duplicates = sorted({s for s in stems if stems.count(s) > 1})
     if duplicates:
         raise DatasetError(f"clips with the same name would overwrite each other: {duplicates}")
-    trajectories = [read(path) for path in paths]  # every clip read before anything is written
+    from motionkit.robot import load_robot
+
+    robot = load_robot(args.urdf, args.spec)
+    # every clip read and checked before anything is written
+    trajectories = [read_valid(path, robot) for path in paths]
     for path, trajectory in zip(paths, trajectories, strict=True):
         written = export(trajectory, path.stem, args.out, args.format)
         print(f"wrote {written} ({trajectory.frames} frames)")

@@ -53,10 +53,10 @@ class Metadata:
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
-            raise DatasetError(f"metadata kind '{self.kind}' is not one of {', '.join(KINDS)}")
+            raise DatasetError(f"metadata kind {self.kind!r} is not one of {', '.join(KINDS)}")
         if self.generator not in GENERATORS:
             raise DatasetError(
-                f"metadata generator '{self.generator}' is not one of {', '.join(GENERATORS)}"
+                f"metadata generator {self.generator!r} is not one of {', '.join(GENERATORS)}"
             )
 
 

@@ -1,4 +1,6 @@
-"""`motionkit dataset validate`: every check a clip must pass, as a report."""
+"""`motionkit dataset validate`: every check a clip must pass, as a report; `read_valid` for
+the commands that refuse a clip failing one (export, view) and `read_sound` for those that
+need only a sound file (info)."""
 
 from __future__ import annotations
 
@@ -10,7 +12,7 @@ import numpy as np
 from motionkit.dataset.clip import corner_names, read
 from motionkit.dataset.physics import PhysicsConfig, check_physics
 from motionkit.dataset.trajectory import Trajectory
-from motionkit.errors import MotionkitError
+from motionkit.errors import DatasetError, MotionkitError
 from motionkit.robot import Robot
 from motionkit.robot.geometry import angular_velocity
 
@@ -20,6 +22,10 @@ LIMIT_TOLERANCE = 1e-3  # rad beyond a position limit; relative beyond a velocit
 # RELATIVE x RMS(velocity) + ABSOLUTE (central differences of a smooth motion differ by
 # O(dt^2); rollouts log instantaneous velocities).
 VELOCITY_RELATIVE, VELOCITY_ABSOLUTE = 0.1, 0.05
+
+
+READ_CHECK = "read (schema, metadata, CRCs)"
+MODEL_CHECK = "robot model"
 
 
 @dataclass(frozen=True)
@@ -36,20 +42,60 @@ def validate_clip(
     """Read the clip (schema, metadata, CRCs) and check its values; `robot` None skips the
     checks against a robot (its joints and limits, and the physics check, whose thresholds
     `physics` sets: warnings)."""
+    trajectory, checks = _checks(path, robot)
+    if trajectory is not None and robot is not None and all(c.ok for c in checks):
+        checks.append(check_physics_warnings(trajectory, robot, physics or PhysicsConfig()))
+    return checks
+
+
+def read_sound(path: Path) -> Trajectory:
+    """The clip, or a DatasetError naming it unless it reads (schema, metadata, CRCs) with
+    increasing times, finite values and unit quaternions."""
+    return _refuse_failed(path, *_read_and_check(path))
+
+
+def read_valid(path: Path, robot: Robot, *, other_model: bool = False) -> Trajectory:
+    """The clip, or a DatasetError naming it and the first check of `dataset validate` it
+    fails (the physics warnings aside); `other_model` lets a clip made for another model of
+    the robot (the same names) pass."""
+    trajectory, checks = _checks(path, robot)
+    return _refuse_failed(
+        path, trajectory, [c for c in checks if not other_model or c.name != MODEL_CHECK]
+    )
+
+
+def _read_and_check(path: Path) -> tuple[Trajectory | None, list[Check]]:
+    """The clip (None when unreadable) and the checks of a sound file."""
     try:
         trajectory = read(path)
     except MotionkitError as exc:
-        return [Check("read (schema, metadata, CRCs)", False, str(exc))]
-    checks = [Check("read (schema, metadata, CRCs)", True, f"{trajectory.frames} frames")]
-    basics = [check_time(trajectory), check_finite(trajectory), check_quaternions(trajectory)]
-    checks += basics
-    if trajectory.frames > 2 and basics[0].ok and basics[1].ok:  # needs increasing, finite data
-        checks += check_velocities(trajectory)
-    if robot is not None:
-        checks += check_robot(trajectory, robot)
-        if all(c.ok for c in checks):
-            checks.append(check_physics_warnings(trajectory, robot, physics or PhysicsConfig()))
-    return checks
+        return None, [Check(READ_CHECK, False, str(exc))]
+    checks = [Check(READ_CHECK, True, f"{trajectory.frames} frames")]
+    checks += [check_time(trajectory), check_finite(trajectory), check_quaternions(trajectory)]
+    return trajectory, checks
+
+
+def _checks(path: Path, robot: Robot | None) -> tuple[Trajectory | None, list[Check]]:
+    """The clip and every check but the physics warnings."""
+    trajectory, checks = _read_and_check(path)
+    if trajectory is not None:
+        if trajectory.frames > 2 and checks[1].ok and checks[2].ok:  # increasing, finite data
+            checks += check_velocities(trajectory)
+        if robot is not None:
+            checks += check_robot(trajectory, robot)
+    return trajectory, checks
+
+
+def _refuse_failed(path: Path, trajectory: Trajectory | None, checks: list[Check]) -> Trajectory:
+    for check in checks:
+        if check.name == READ_CHECK and not check.ok:
+            raise DatasetError(check.detail)  # names the file already
+        if not check.ok and not check.warning:
+            raise DatasetError(
+                f"{path}: {check.name}: {check.detail} (see `motionkit dataset validate`)"
+            )
+    assert trajectory is not None  # an unreadable clip fails its read check
+    return trajectory
 
 
 def check_physics_warnings(trajectory: Trajectory, robot: Robot, config: PhysicsConfig) -> Check:
@@ -138,17 +184,35 @@ def check_velocities(trajectory: Trajectory) -> list[Check]:
     ]
 
 
+def check_names(trajectory: Trajectory, robot: Robot) -> Check | None:
+    """The first of joint, jet and foot names that is not the robot's, or None."""
+    expected = {
+        "joint": robot.joint_names,
+        "jet": tuple(jet.name for jet in robot.spec.jets),
+        "foot": tuple(foot.side for foot in robot.spec.feet),
+    }
+    for kind, names in expected.items():
+        found = getattr(trajectory, f"{kind}_names")
+        if found != names:
+            missing = sorted(set(names) - set(found))
+            extra = sorted(set(found) - set(names))
+            detail = (
+                f"missing {missing}, unknown {extra}" if missing or extra else "different order"
+            )
+            return Check(f"{kind} names of {robot.name}", False, detail)
+    return None
+
+
 def check_robot(trajectory: Trajectory, robot: Robot) -> list[Check]:
-    if trajectory.joint_names != robot.joint_names:
-        missing = sorted(set(robot.joint_names) - set(trajectory.joint_names))
-        extra = sorted(set(trajectory.joint_names) - set(robot.joint_names))
-        detail = f"missing {missing}, unknown {extra}" if missing or extra else "different order"
-        return [Check(f"joint names of {robot.name}", False, detail)]
+    wrong = check_names(trajectory, robot)
+    if wrong is not None:
+        return [wrong]
     meta = trajectory.metadata
+    counts = f"{len(robot.joint_names)} joints, {len(robot.spec.jets)} jets"
     checks = [
-        Check(f"joint names of {robot.name}", True, f"{len(robot.joint_names)} joints"),
+        Check(f"joint, jet and foot names of {robot.name}", True, counts),
         Check(
-            "robot model",
+            MODEL_CHECK,
             meta.robot_hash == robot.model_hash,
             f"clip made for {meta.robot} model {meta.robot_hash}; this model {robot.model_hash}",
         ),

@@ -7,10 +7,16 @@ listed is applied first, so "rx ry rz" gives M = Rz Ry Rx); the root uses `:root
 the skeleton has a joint per bone at the bone's start, the root, and a "<bone>_end" joint at each
 leaf bone's end. Root TX/TY/TZ are absolute (they replace `position`); a bone's tx/ty/tz move its
 start along its axis frame and `l` lengthens it.
+
+AMC frames must be numbered consecutively. A clip read in degrees whose every rotation value
+(root and bones, all frames) stays within +-pi, while some reach RADIANS_HINT, is refused as
+radians mislabelled: read as degrees it would be a body frozen within 3 degrees of its rest pose,
+read as radians a motion of up to 180 degrees.
 """
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from motionkit.errors import MocapError
+from motionkit.inputs import read_text
 from motionkit.mocap.naming import MappingSource
 from motionkit.mocap.skeleton import (
     Y_UP_TO_Z_UP,
@@ -30,6 +37,8 @@ from motionkit.mocap.skeleton import (
 
 DEFAULT_RATE = 120.0  # Hz: CMU captures; AMC files store no rate
 _DOFS = ("rx", "ry", "rz", "tx", "ty", "tz", "l")
+_FRAME = re.compile(r"[0-9]+")
+RADIANS_HINT = 0.2  # the largest rotation value of a clip that reads as radians (11 degrees)
 
 
 @dataclass
@@ -72,6 +81,8 @@ def _floats(words: list[str], count: int, where: str) -> Array:
         raise MocapError(f"{where}: expected {count} numbers, got {' '.join(words)!r}") from None
     if len(values) != count:
         raise MocapError(f"{where}: expected {count} numbers, got {' '.join(words)!r}")
+    if not all(map(math.isfinite, values)):
+        raise MocapError(f"{where}: {' '.join(words[:count])!r} holds a non-finite number")
     return np.array(values)
 
 
@@ -84,10 +95,7 @@ def _order(word: str, where: str) -> str:
 
 def read_asf(path: Path) -> Asf:
     """Parse an ASF file (see the module docstring)."""
-    try:
-        lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
-    except OSError as exc:
-        raise MocapError(f"{path}: cannot read ({exc.strerror})") from None
+    lines = read_text(path, MocapError, "the ASF skeleton").splitlines()
     asf = Asf(path, {}, {})
     section, bone = "", None
     hierarchy: list[tuple[int, list[str]]] = []
@@ -164,6 +172,8 @@ def _bone_field(
         bone.direction = _floats(words[1:], 3, where)
     elif key == "length":
         bone.length = float(_floats(words[1:], 1, where)[0])
+        if bone.length < 0:
+            raise MocapError(f"{where}: bone '{bone.name}' has a negative length")
     elif key == "axis":
         bone.axis = _floats(words[1:], 3, where)
         bone.axis_order = _order(words[4] if len(words) > 4 else "xyz", where)
@@ -195,17 +205,17 @@ def _link(asf: Asf, hierarchy: list[tuple[int, list[str]]]) -> None:
         stack.extend(reversed(children.get(name, [])))
     orphans = [b for b in asf.bones if b not in ordered]
     if orphans:
-        raise MocapError(f"{asf.path}: bones not reachable from root in :hierarchy: {orphans}")
+        cycle = " (their parents form a cycle)" if all(b in asf.parent for b in orphans) else ""
+        raise MocapError(
+            f"{asf.path}: bones not reachable from root in :hierarchy: {orphans}{cycle}"
+        )
     asf.bones = {name: asf.bones[name] for name in ordered}
 
 
 def read_amc(path: Path, asf: Asf) -> tuple[Array, dict[str, Array], bool]:
     """Frame numbers (T,), the dof values (T, n) of the root and each moving bone, and
     whether they are in degrees."""
-    try:
-        lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
-    except OSError as exc:
-        raise MocapError(f"{path}: cannot read ({exc.strerror})") from None
+    lines = read_text(path, MocapError, "the AMC motion").splitlines()
     degrees = asf.degrees
     body = 0
     for n, line in enumerate(lines):
@@ -224,7 +234,56 @@ def read_amc(path: Path, asf: Asf) -> tuple[Array, dict[str, Array], bool]:
     if parsed is None:
         parsed = _checked_frames(lines, body, dofs, path)
     numbers, values = parsed
+    _check_numbers(numbers, path)
+    _check_values(numbers, values, dofs, degrees, path)
     return numbers, values, degrees
+
+
+def _check_numbers(numbers: Array, path: Path) -> None:
+    """Frames numbered consecutively, or a MocapError naming the first that are not."""
+    steps = np.diff(numbers)
+    if np.all(steps == 1):
+        return
+    unique, counts = np.unique(numbers, return_counts=True)
+    if counts.max() > 1:
+        k = int(np.argmax(counts > 1))
+        problem = f"frame {int(unique[k])} appears {counts[k]} times"
+    elif np.any(steps < 0):
+        k = int(np.argmax(steps < 0))
+        problem = f"frame {int(numbers[k + 1])} comes after frame {int(numbers[k])} (out of order)"
+    else:
+        k = int(np.argmax(steps > 1))
+        before, after = int(numbers[k]), int(numbers[k + 1])
+        problem = f"frames {before + 1} to {after - 1} are missing (frame {after} follows {before})"
+    raise MocapError(f"{path}: {problem}; AMC frames must be numbered consecutively")
+
+
+def _check_values(
+    numbers: Array,
+    values: dict[str, Array],
+    dofs: dict[str, tuple[str, ...]],
+    degrees: bool,
+    path: Path,
+) -> None:
+    """Finite values, and no radians read as degrees (see the module docstring)."""
+    for name, array in values.items():
+        bad = np.argwhere(~np.isfinite(array))
+        if len(bad):
+            row, column = bad[0]
+            raise MocapError(
+                f"{path} frame {int(numbers[row])}: bone '{name}' {dofs[name][column]} is "
+                f"{array[row, column]}, not a finite number"
+            )
+    if not degrees:
+        return
+    angles = [array[:, [d[0] == "r" for d in dofs[name]]] for name, array in values.items()]
+    largest = max((float(np.abs(a).max()) for a in angles if a.size), default=0.0)
+    if RADIANS_HINT <= largest <= math.pi:
+        raise MocapError(
+            f"{path}: read in degrees, but every rotation value lies within +-pi (largest "
+            f"{largest:.3f}): radians, it seems; add ':RADIANS' to the AMC header or set "
+            "'angle rad' in the ASF's :units"
+        )
 
 
 def _fast_frames(
@@ -242,7 +301,7 @@ def _fast_frames(
     if sorted(names) != sorted(dofs) or (len(lines) - body) % size:
         return None
     heads = lines[body::size]
-    if not all(h.strip().isdigit() for h in heads):
+    if not all(_FRAME.fullmatch(h.strip()) for h in heads):
         return None
     values: dict[str, Array] = {}
     for k, name in enumerate(names, start=1):
@@ -283,7 +342,7 @@ def _checked_frames(
         where = f"{path} line {n + 1}"
         if not words:
             continue
-        if len(words) == 1 and words[0].isdigit():
+        if len(words) == 1 and _FRAME.fullmatch(words[0]):
             if numbers:
                 close()
             numbers.append(int(words[0]))

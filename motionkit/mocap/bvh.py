@@ -8,6 +8,7 @@ the root translation. End Sites become leaf joints named "<parent>_End".
 from __future__ import annotations
 
 import io
+import math
 import re
 import warnings
 from dataclasses import dataclass, field
@@ -16,10 +17,19 @@ from pathlib import Path
 import numpy as np
 
 from motionkit.errors import MocapError
+from motionkit.inputs import read_text
 from motionkit.mocap.naming import MappingSource
-from motionkit.mocap.skeleton import Array, MocapClip, build_clip, clip_name, y_up_euler
+from motionkit.mocap.skeleton import (
+    MAX_RATE,
+    Array,
+    MocapClip,
+    build_clip,
+    clip_name,
+    y_up_euler,
+)
 
 _CHANNELS = {f"{a}{kind}": (kind, a) for a in "xyz" for kind in ("position", "rotation")}
+MAX_DEPTH = 200  # joints nested deeper than this are refused (a human chain is under 30)
 
 
 @dataclass
@@ -68,26 +78,31 @@ class _Tokens:
     def number(self, what: str) -> float:
         tok, line = self.next(what)
         try:
-            return float(tok)
+            value = float(tok)
         except ValueError:
             raise self.error(f"expected {what}, got '{tok}'", line) from None
+        if not math.isfinite(value):
+            raise self.error(f"{what} '{tok}' is not a finite number", line)
+        return value
 
 
 def _parse_hierarchy(tokens: _Tokens) -> list[_Joint]:
     tokens.expect("HIERARCHY")
     tokens.expect("ROOT")
     joints: list[_Joint] = []
-    _parse_joint(tokens, joints, parent=-1, line=tokens.items[tokens.pos - 1][1])
+    _parse_joint(tokens, joints, parent=-1, line=tokens.items[tokens.pos - 1][1], depth=0)
     if tokens.pos < len(tokens.items):
         tok, line = tokens.items[tokens.pos]
         raise tokens.error(f"expected MOTION after the ROOT joint, got '{tok}'", line)
     return joints
 
 
-def _parse_joint(tokens: _Tokens, joints: list[_Joint], parent: int, line: int) -> None:
+def _parse_joint(tokens: _Tokens, joints: list[_Joint], parent: int, line: int, depth: int) -> None:
     name = tokens.rest_of_line(line)
     if not name:
         raise tokens.error("joint without a name", line)
+    if depth > MAX_DEPTH:
+        raise tokens.error(f"joint '{name}' is nested over {MAX_DEPTH} joints deep", line)
     if any(j.name == name for j in joints):
         raise tokens.error(f"duplicate joint name '{name}'", line)
     joint = _Joint(name, parent, line)
@@ -102,9 +117,11 @@ def _parse_joint(tokens: _Tokens, joints: list[_Joint], parent: int, line: int) 
             joint.offset = tuple(tokens.number("an OFFSET value") for _ in range(3))
             has_offset = True
         elif word == "CHANNELS":
+            if joint.channels:
+                raise tokens.error(f"joint '{name}' has a second CHANNELS line", at)
             count = tokens.number("the channel count")
-            if count != int(count) or count < 0:
-                raise tokens.error(f"bad channel count {count:g}", at)
+            if count != int(count) or not 0 <= count <= len(_CHANNELS):
+                raise tokens.error(f"bad channel count {count:g} (0 to {len(_CHANNELS)})", at)
             for _ in range(int(count)):
                 channel, cline = tokens.next("a channel name")
                 if channel.lower() not in _CHANNELS:
@@ -113,9 +130,11 @@ def _parse_joint(tokens: _Tokens, joints: list[_Joint], parent: int, line: int) 
                         "(expected X/Y/Z + position/rotation)",
                         cline,
                     )
+                if _CHANNELS[channel.lower()] in joint.channels:
+                    raise tokens.error(f"channel '{channel}' twice in joint '{name}'", cline)
                 joint.channels.append(_CHANNELS[channel.lower()])
         elif word == "JOINT":
-            _parse_joint(tokens, joints, index, at)
+            _parse_joint(tokens, joints, index, at, depth + 1)
         elif word == "END":
             tokens.expect("Site")
             tokens.rest_of_line(at)
@@ -151,7 +170,7 @@ def _split_motion(text: str, path: Path) -> tuple[list[str], int, float, str, in
             value = float(m.group(1)) if m else float("nan")
         except ValueError:
             value = float("nan")
-        if not value >= 0 or (n == 0 and value != int(value)):
+        if not 0 <= value < math.inf or (n == 0 and value != int(value)):
             raise MocapError(f"{path} line {first + n}: expected '{key} <number>', got {line!r}")
         values.append(value)
     motion = rest[3] if len(rest) > 3 else ""
@@ -160,8 +179,6 @@ def _split_motion(text: str, path: Path) -> tuple[list[str], int, float, str, in
 
 def _parse_motion(motion: str, frames: int, columns: int, first_line: int, path: Path) -> Array:
     """(frames, columns) values; any mismatch names the line."""
-    if columns == 0:
-        return np.zeros((frames, 0))
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -182,6 +199,13 @@ def _parse_motion(motion: str, frames: int, columns: int, first_line: int, path:
         extra = _data_lines(motion)[frames]
         raise MocapError(
             f"{path} line {first_line + extra}: more motion lines than 'Frames: {frames}'"
+        )
+    bad = np.argwhere(~np.isfinite(data))
+    if len(bad):
+        row, column = bad[0]
+        raise MocapError(
+            f"{path} line {first_line + _data_lines(motion)[row]}: value {column + 1} "
+            f"({data[row, column]}) is not a finite number"
         )
     return data
 
@@ -216,19 +240,21 @@ def read_bvh(
     keep_tpose: bool = False,
 ) -> MocapClip:
     """A BVH clip in metres, Z-up (see `motionkit.mocap.load_mocap`)."""
-    try:
-        text = path.read_text(encoding="utf-8", errors="replace")
-    except OSError as exc:
-        raise MocapError(f"{path}: cannot read ({exc.strerror})") from None
+    text = read_text(path, MocapError, "the BVH file")
     head, frames, frame_time, motion, first_line = _split_motion(text, path)
     joints = _parse_hierarchy(_Tokens(head, path))
     columns = sum(len(j.channels) for j in joints)
+    if columns == 0:
+        raise MocapError(f"{path}: no joint has CHANNELS: the file animates nothing")
     data = _parse_motion(motion, frames, columns, first_line, path)
     if frames == 0:
         raise MocapError(f"{path}: 'Frames: 0': the clip has no motion")
     if rate is None:
-        if not frame_time > 0:
-            raise MocapError(f"{path}: 'Frame Time: {frame_time}' (pass rate=)")
+        if not frame_time >= 1 / MAX_RATE:
+            raise MocapError(
+                f"{path}: 'Frame Time: {frame_time}': expected at least {1 / MAX_RATE:g} s "
+                "(or pass rate=)"
+            )
         rate = 1.0 / frame_time
         if abs(rate - round(rate)) < 1e-4 * rate:  # ".0083333" means 120 Hz
             rate = float(round(rate))

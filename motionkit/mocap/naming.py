@@ -24,6 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from motionkit.errors import MocapError
+from motionkit.inputs import read_text
 
 LANDMARKS: tuple[str, ...] = (
     "pelvis",
@@ -213,10 +214,7 @@ def read_mapping(
     if isinstance(mapping, str | Path):
         where = str(mapping)
         try:
-            with open(mapping, "rb") as handle:
-                data = tomllib.load(handle)
-        except OSError as exc:
-            raise MocapError(f"{where}: cannot read the mapping ({exc.strerror})") from None
+            data = tomllib.loads(read_text(mapping, MocapError, "the mapping"))
         except tomllib.TOMLDecodeError as exc:
             raise MocapError(f"{where}: invalid TOML: {exc}") from None
         table = data.get("landmarks")

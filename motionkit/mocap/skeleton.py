@@ -33,6 +33,14 @@ UNITS: dict[str, float] = {
     "cmu": 0.0254 / 0.45,
 }
 LEG_LENGTH = 0.85  # m, hip to ankle of an adult: the target of unit auto-detection
+# Sanity bounds of a take: a rest-pose leg (hip-knee-ankle) in LEG_RANGE in the detected units
+# (explicit units may make it any length up to MAX_EXTENT), no rest offset (bone) longer than
+# MAX_BONE_LEGS legs, the root within MAX_EXTENT of the origin, a frame rate up to MAX_RATE.
+# Files beyond them are broken or read in the wrong units.
+LEG_RANGE = (0.1, 10.0)  # m
+MAX_BONE_LEGS = 3.0
+MAX_EXTENT = 10_000.0  # m
+MAX_RATE = 10_000.0  # Hz
 
 # +90 deg about x: x' = x, y' = -z, z' = y.
 Y_UP_TO_Z_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
@@ -220,16 +228,24 @@ class MocapClip:
         return naming.landmark_positions(self._positions, self.skeleton.names, mapping)
 
 
-def units_from_leg(skeleton_rest: Array, names: tuple[str, ...], mapping: Mapping[str, str]) -> str:
-    """The unit (key of UNITS) that makes the rest-pose leg (hip-knee-ankle) closest to 0.85 m."""
+def leg_length(skeleton_rest: Array, names: tuple[str, ...], mapping: Mapping[str, str]) -> float:
+    """The mean rest-pose leg length (hip-knee-ankle) in the skeleton's units."""
     lengths = []
     for side in "lr":
         chain = [names.index(mapping[f"{side}_{part}"]) for part in ("hip", "knee", "ankle")]
         pts = skeleton_rest[chain]
         lengths.append(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
-    leg = float(np.mean(lengths))
-    if not leg > 0:
-        raise MocapError("cannot detect units: the rest-pose legs have zero length; pass units=")
+    return float(np.mean(lengths))
+
+
+def units_from_leg(leg: float, source: Path) -> str:
+    """The unit (key of UNITS) that makes a rest-pose leg (hip-knee-ankle) of `leg` file units
+    closest to 0.85 m."""
+    if not 0 < leg < math.inf:
+        raise MocapError(
+            f"{source}: cannot detect units: the rest-pose legs are {leg:g} file units long; "
+            "pass units="
+        )
     return min(UNITS, key=lambda unit: abs(math.log(leg * UNITS[unit] / LEG_LENGTH)))
 
 
@@ -285,11 +301,18 @@ def build_clip(
     """Finish a reader's output: resolve landmarks, choose units, turn offsets, root and
     translations (file units, Y-up) to Z-up metres, drop a leading T-pose unless `keep_tpose`,
     fold constant translations. `rotations` come Z-up already (see `y_up_euler`)."""
+    if not 0 < rate <= MAX_RATE:
+        raise MocapError(f"{source}: frame rate {rate} Hz (expected 0 to {MAX_RATE:g} Hz)")
     landmark_map = naming.resolve(names, mapping, source)
-    if units is None:
+    with np.errstate(over="ignore", invalid="ignore"):  # huge values are refused below
         rest = Skeleton(names, parents, offsets).rest_positions()
-        units = units_from_leg(rest, names, landmark_map)
-    scale = _unit_scale(units, source)
+        leg = leg_length(rest, names, landmark_map)
+        scale = _unit_scale(units_from_leg(leg, source) if units is None else units, source)
+        moves = {"root position": root * scale}
+        if translations is not None:
+            moves["a joint translation"] = translations * scale
+        legs = LEG_RANGE if units is None else (0.0, MAX_EXTENT)
+        _check_size(source, leg * scale, legs, names, offsets * scale, moves)
 
     a = Y_UP_TO_Z_UP
     offsets = offsets @ a.T * scale
@@ -317,6 +340,38 @@ def build_clip(
         rest = Skeleton(names, parents, clip.translations[0].copy())
         clip = replace(clip, skeleton=rest, translations=None)
     return clip
+
+
+def _check_size(
+    source: Path,
+    leg: float,
+    legs: tuple[float, float],
+    names: tuple[str, ...],
+    offsets: Array,
+    moves: dict[str, Array],
+) -> None:
+    """A MocapError unless the leg is within `legs` and the rest in proportion (see LEG_RANGE);
+    all in metres."""
+    low, high = legs
+    if not (leg > 0 and low <= leg <= high):
+        raise MocapError(
+            f"{source}: the rest-pose leg is {leg:.3g} m long, not {low:g} to {high:g} m: "
+            "wrong units (pass units=) or a broken skeleton"
+        )
+    bones = np.linalg.norm(offsets[1:], axis=1)
+    if bones.size and not bones.max() <= MAX_BONE_LEGS * leg:
+        joint = names[1 + int(np.argmax(bones))]
+        raise MocapError(
+            f"{source}: joint '{joint}' is {bones.max():.3g} m from its parent, over "
+            f"{MAX_BONE_LEGS:g} leg lengths ({leg:.3g} m): a broken skeleton"
+        )
+    for what, values in moves.items():
+        far = np.abs(values).reshape(len(values), -1).max(axis=1)
+        if not far.max() <= MAX_EXTENT:
+            raise MocapError(
+                f"{source}: {what} of {far.max():.3g} m at frame {int(np.argmax(far))}, beyond "
+                f"{MAX_EXTENT:g} m: a broken file or wrong units"
+            )
 
 
 def _unit_scale(units: str | float, source: Path) -> float:

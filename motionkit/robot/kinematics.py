@@ -41,12 +41,16 @@ def frame_poses(
     poses: dict[str, Array] = {model.root: np.broadcast_to(np.eye(4), (count, 4, 4))}
 
     def pose(link: str) -> Array:
-        if link not in poses:
-            joint = model.parent_joint(link)
+        chain, top = [], link  # the joints up from `link` to a link already posed
+        while top not in poses:
+            joint = model.parent_joint(top)
             if joint is None:
-                raise RobotModelError(f"{model.source}: link '{link}' has no parent joint")
+                raise RobotModelError(f"{model.source}: link '{top}' has no parent joint")
+            chain.append(joint)
+            top = joint.parent
+        for joint in reversed(chain):
             q = positions[:, column[joint.name]] if joint.name in column else None
-            poses[link] = pose(joint.parent) @ joint_transforms(joint, q, count)
+            poses[joint.child] = poses[joint.parent] @ joint_transforms(joint, q, count)
         return poses[link]
 
     return np.stack([pose(frame) for frame in frames], axis=1)

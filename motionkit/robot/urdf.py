@@ -7,16 +7,20 @@ Everything is a float array in SI units; origins are 4x4 homogeneous transforms.
 from __future__ import annotations
 
 import copy
+import difflib
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from motionkit.errors import RobotModelError
+from motionkit.inputs import read_text
 from motionkit.robot.geometry import Array, axis_angle, make_transform, matrix_to_rpy
 
 MOVABLE = ("revolute", "continuous", "prismatic")
+JOINT_TYPES = (*MOVABLE, "fixed")  # URDF's floating and planar joints are not supported
 # A principal moment below this is treated as zero when checking inertias [kg m^2].
 INERTIA_TOLERANCE = 1e-12
 
@@ -83,8 +87,17 @@ class RobotModel:
     def root(self) -> str:
         children = {j.child for j in self.joints.values()}
         roots = [name for name in self.links if name not in children]
-        if len(roots) != 1:
-            raise RobotModelError(f"{self.source}: expected one root link, found {roots}")
+        if not self.links:
+            raise RobotModelError(f"{self.source}: the robot has no links")
+        if not roots:
+            raise RobotModelError(
+                f"{self.source}: no root link: {_cycle(self, next(iter(self.links)))}"
+            )
+        if len(roots) > 1:
+            raise RobotModelError(
+                f"{self.source}: {len(roots)} root links (no joint leads to them): "
+                f"{', '.join(roots)}; expected one root link: the links must form one tree"
+            )
         return roots[0]
 
     def child_joints(self, link: str) -> list[Joint]:
@@ -95,9 +108,13 @@ class RobotModel:
 
     def subtree(self, link: str) -> list[str]:
         """The link and every link below it, depth first."""
-        names = [link]
-        for joint in self.child_joints(link):
-            names += self.subtree(joint.child)
+        children: dict[str, list[str]] = {}
+        for joint in self.joints.values():
+            children.setdefault(joint.parent, []).append(joint.child)
+        names, stack = [], [link]
+        while stack:
+            names.append(stack.pop())
+            stack += reversed(children.get(names[-1], []))
         return names
 
     def remove_subtree(self, link: str) -> None:
@@ -112,11 +129,15 @@ class RobotModel:
     def total_mass(self) -> float:
         return sum(link.inertial.mass for link in self.links.values() if link.inertial)
 
-    def require_frames(self, frames: list[str], what: str) -> None:
+    def require_frames(self, frames: Sequence[str], what: str) -> None:
+        if isinstance(frames, str):
+            raise RobotModelError(f"{what}: expected a list of link names, got {frames!r}")
         missing = [f for f in frames if f not in self.links]
         if missing:
+            close = {m: difflib.get_close_matches(m, self.links, 1) for m in missing}
+            hints = [f"{m} (did you mean {c[0]}?)" if c else m for m, c in close.items()]
             raise RobotModelError(
-                f"{self.source}: no link named {', '.join(missing)} (needed for {what})"
+                f"{self.source}: no link named {', '.join(hints)} (needed for {what})"
             )
 
     # -- kinematics (plain numpy; used for building, not in hot loops) ---------------------
@@ -182,19 +203,54 @@ def inertia_problem(mass: float, inertia: Array) -> str | None:
     return None
 
 
+def _cycle(model: RobotModel, start: str) -> str:
+    """The joint cycle above `start`, a link whose ancestors all have a parent joint."""
+    parent = {j.child: j.parent for j in model.joints.values()}
+    path = [start]
+    while parent[path[-1]] not in path:
+        path.append(parent[path[-1]])
+    loop = path[path.index(parent[path[-1]]) :][::-1]
+    return f"the joints form a cycle {' -> '.join([*loop, loop[0]])}; a URDF must be a tree"
+
+
+def _check_tree(model: RobotModel) -> None:
+    """One root link, every link reached from it through joints, no link the child of two."""
+    parents: dict[str, str] = {}
+    for joint in model.joints.values():
+        if joint.child in parents:
+            raise RobotModelError(
+                f"{model.source}: link '{joint.child}' is the child of two joints, "
+                f"'{parents[joint.child]}' and '{joint.name}'"
+            )
+        parents[joint.child] = joint.name
+    reached = set(model.subtree(model.root))
+    stray = [name for name in model.links if name not in reached]
+    if stray:
+        raise RobotModelError(f"{model.source}: {_cycle(model, stray[0])}")
+
+
 # -- parsing ---------------------------------------------------------------------------------
-def _floats(text: str | None, default: str, where: str) -> Array:
+def _floats(text: str | None, default: str, where: str, count: int) -> Array:
+    words = (text or default).split()
+    expected = "a finite number" if count == 1 else f"{count} finite numbers"
     try:
-        return np.array([float(v) for v in (text or default).split()])
-    except ValueError as exc:
-        raise RobotModelError(f"{where}: expected numbers, got '{text}'") from exc
+        values = np.array([float(v) for v in words])
+    except ValueError:
+        raise RobotModelError(f"{where}: expected {expected}, got {text!r}") from None
+    if len(values) != count or not np.all(np.isfinite(values)):
+        raise RobotModelError(f"{where}: expected {expected}, got {text!r}")
+    return values
+
+
+def _number(element: ET.Element, key: str, default: str, where: str) -> float:
+    return float(_floats(element.get(key), default, f"{where} {element.tag} {key}", 1)[0])
 
 
 def _origin(element: ET.Element | None, where: str) -> Array:
     if element is None:
         return np.eye(4)
-    xyz = _floats(element.get("xyz"), "0 0 0", f"{where} origin xyz")
-    rpy = _floats(element.get("rpy"), "0 0 0", f"{where} origin rpy")
+    xyz = _floats(element.get("xyz"), "0 0 0", f"{where} origin xyz", 3)
+    rpy = _floats(element.get("rpy"), "0 0 0", f"{where} origin rpy", 3)
     return make_transform(xyz, rpy)
 
 
@@ -205,7 +261,7 @@ def _shape(element: ET.Element, where: str) -> Shape | None:
     color = element.find("material/color")
     rgba = None
     if color is not None:
-        rgba = tuple(_floats(color.get("rgba"), "1 1 1 1", f"{where} color"))
+        rgba = tuple(_floats(color.get("rgba"), "1 1 1 1", f"{where} color rgba", 4))
     return Shape(_origin(element.find("origin"), where), copy.deepcopy(geometry), rgba)
 
 
@@ -242,6 +298,8 @@ def parse_urdf(text: str, source: str = "<string>") -> RobotModel:
     for el in root.findall("link"):
         name = el.get("name", "")
         where = f"{source}: link '{name}'"
+        if not name or name in links:
+            raise RobotModelError(f"{where}: {'a second link of that name' if name else 'no name'}")
         link = Link(name, _inertial(el.find("inertial"), where))
         link.visuals = [s for v in el.findall("visual") if (s := _shape(v, where))]
         link.collisions = [s for c in el.findall("collision") if (s := _shape(c, where))]
@@ -250,6 +308,14 @@ def parse_urdf(text: str, source: str = "<string>") -> RobotModel:
     for el in root.findall("joint"):
         name = el.get("name", "")
         where = f"{source}: joint '{name}'"
+        if not name or name in joints:
+            raise RobotModelError(
+                f"{where}: {'a second joint of that name' if name else 'no name'}"
+            )
+        if el.get("type") not in JOINT_TYPES:
+            raise RobotModelError(
+                f"{where}: type {el.get('type')!r} is not one of {', '.join(JOINT_TYPES)}"
+            )
         parent, child = el.find("parent"), el.find("child")
         if parent is None or child is None:
             raise RobotModelError(f"{where}: needs <parent> and <child>")
@@ -263,27 +329,31 @@ def parse_urdf(text: str, source: str = "<string>") -> RobotModel:
         if joint.parent not in links or joint.child not in links:
             raise RobotModelError(f"{where}: connects unknown links {joint.parent}/{joint.child}")
         if joint.movable:
-            axis = el.find("axis")
-            joint.axis = _floats(axis.get("xyz") if axis is not None else None, "1 0 0", where)
-            joint.axis = joint.axis / np.linalg.norm(joint.axis)
-            limit = el.find("limit")
-            if limit is not None:
-                joint.lower = float(limit.get("lower", "0"))
-                joint.upper = float(limit.get("upper", "0"))
-                joint.velocity = float(limit.get("velocity", "0"))
-                joint.effort = float(limit.get("effort", "0"))
+            _motion(joint, el, where)
         joints[name] = joint
     model = RobotModel(root.get("name", "robot"), links, joints, source)
-    _ = model.root  # one root, or a clear error
+    _check_tree(model)
     return model
 
 
+def _motion(joint: Joint, element: ET.Element, where: str) -> None:
+    """A movable joint's unit axis and its limits (finite numbers)."""
+    axis = element.find("axis")
+    xyz = _floats(axis.get("xyz") if axis is not None else None, "1 0 0", f"{where} axis xyz", 3)
+    norm = float(np.linalg.norm(xyz))
+    if not norm > 0:
+        raise RobotModelError(f"{where}: axis xyz {axis.get('xyz')!r} has zero length")
+    joint.axis = xyz / norm
+    limit = element.find("limit")
+    if limit is not None:
+        joint.lower = _number(limit, "lower", "0", where)
+        joint.upper = _number(limit, "upper", "0", where)
+        joint.velocity = _number(limit, "velocity", "0", where)
+        joint.effort = _number(limit, "effort", "0", where)
+
+
 def load_urdf(path: Path) -> RobotModel:
-    try:
-        text = Path(path).read_text()
-    except OSError as exc:
-        raise RobotModelError(f"{path}: cannot read URDF ({exc.strerror})") from exc
-    return parse_urdf(text, str(path))
+    return parse_urdf(read_text(path, RobotModelError, "URDF"), str(path))
 
 
 # -- writing ---------------------------------------------------------------------------------

@@ -3,9 +3,10 @@
     app = ViewerApp(robot, resolve_clips("datasets/walk"), port=8080)
     app.set_time(2.5); app.current_pose()["l_foot"]; app.close()
 
-Every clip is checked before the server starts (a ViewerError otherwise); the server binds to
-127.0.0.1. A background thread advances the timeline with the wall clock (at the clip's rate, at
-most MAX_TICK_RATE Hz), so that playback runs at real time whatever the frame cost.
+Every clip's metadata, and the whole first clip, are checked before the server starts (a
+ViewerError otherwise); the server binds to 127.0.0.1, on the next free port when `port` is taken
+(`port_note`). A background thread advances the timeline with the wall clock (at the clip's rate,
+at most MAX_TICK_RATE Hz), so that playback runs at real time whatever the frame cost.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from motionkit.viewer.sources import (
     check_robot,
     contact_forces,
     describe,
+    literal,
     load_motion,
     waypoints,
 )
@@ -63,7 +65,7 @@ class ViewerApp:
         self.skeleton_offset = skeleton_offset  # m, the human skeleton to the robot's left
         self.clips = list(clips)
         warnings = [check_robot(clip, robot) for clip in self.clips]  # raises on a misfit
-        self.motion: Trajectory | None = load_motion(self.clips[0]) if self.clips else None
+        self.motion: Trajectory | None = load_motion(self.clips[0], robot) if self.clips else None
         if meshes is None:
             meshes, problems = robot_meshes(robot)
             warnings += [f"not drawn: {p}" for p in problems]
@@ -74,6 +76,7 @@ class ViewerApp:
             self.server = viser.ViserServer(host=HOST, port=port, verbose=verbose)
         except OSError as exc:
             raise ViewerError(f"cannot serve on {HOST}:{port} ({exc.strerror or exc})") from exc
+        self.requested_port = port
         self.server.scene.set_up_direction("+z")
         self.server.initial_camera.fov = CAMERA_FOV
         self.server.scene.add_grid("/floor", 20.0, 20.0, cell_size=0.5, section_size=1.0)
@@ -98,6 +101,13 @@ class ViewerApp:
     def url(self) -> str:
         return f"http://{HOST}:{self.server.get_port()}"
 
+    def port_note(self) -> str:
+        """ "" when serving on the port asked for; otherwise which port it took instead."""
+        port = self.server.get_port()
+        if port == self.requested_port:
+            return ""
+        return f"port {self.requested_port} is in use; serving on port {port} instead"
+
     def set_time(self, t: float) -> int:
         """Show the clip at time t [s] (clamped); the frame index shown."""
         playback = self._player()
@@ -116,10 +126,17 @@ class ViewerApp:
     def select_clip(self, index: int) -> None:
         """Show the clip `index` of `clips` from its start (its motion read now)."""
         with self._lock:
-            motion = load_motion(self.clips[index])
+            motion = load_motion(self.clips[index], self.robot)
             self.index, self.motion = index, motion
             self.picker.value = self._clip_names()[index]
             self._set_clip(motion)
+
+    def pick(self, name: str) -> None:
+        """Show the clip labelled `name` in the picker, or say on the page why it cannot be."""
+        try:
+            self.select_clip(self._clip_names().index(name))
+        except ViewerError as exc:  # a clip corrupted after the start: say so, keep on
+            self.info.content = f"**cannot show {literal(name)}**: {literal(str(exc))}"
 
     def current_pose(self) -> dict[str, Array]:
         """World pose (4, 4) of every link as shown now."""
@@ -176,10 +193,7 @@ class ViewerApp:
         @self.picker.on_update
         def _(event: viser.GuiEvent) -> None:
             if event.client is not None:
-                try:
-                    self.select_clip(self._clip_names().index(self.picker.value))
-                except ViewerError as exc:  # a clip corrupted after the start: say so, keep on
-                    self.info.content = f"**cannot show {self.picker.value}**: {exc}"
+                self.pick(self.picker.value)
 
         @self.slider.on_update
         def _(event: viser.GuiEvent) -> None:
@@ -353,9 +367,9 @@ class ViewerApp:
         posture = robot.spec.posture_angles()
         limits = robot.limits
         gui.add_markdown(
-            f"**{robot.name}** (model {robot.model_hash}): {len(robot.joint_names)} joints, "
-            f"{robot.total_mass:.2f} kg\n\n{robot.origin}"
-            + "".join(f"\n\n⚠ {w}" for w in self.warnings if w)
+            f"**{literal(robot.name)}** (model {robot.model_hash}): {len(robot.joint_names)} "
+            f"joints, {robot.total_mass:.2f} kg\n\n{literal(robot.origin)}"
+            + "".join(f"\n\n⚠ {literal(w)}" for w in self.warnings if w)
         )
         self.joint_sliders: dict[str, viser.GuiInputHandle[float]] = {}
         with gui.add_folder("Joints [rad]"):

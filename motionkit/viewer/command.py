@@ -13,9 +13,12 @@ from motionkit.viewer.skeleton import SKELETON_OFFSET
 
 VIEW_EPILOG = """\
 PATH is an MCAP clip, a folder of clips or a training run (searched recursively for *.mcap,
-newest first). Every clip's metadata, and the whole first clip (CRCs included), are checked
-before the server starts; a missing or corrupt file is an error naming it. The server listens on
-127.0.0.1 only: from another machine, forward the port (ssh -L 8080:127.0.0.1:8080 host).
+newest first). Every clip's metadata, and the whole first clip, are checked before the server
+starts (the checks of `motionkit dataset validate`; a clip made for another model of the robot
+is shown with a warning); a missing, corrupt or invalid file is an error naming it, and a clip
+picked later that fails is reported on the page. The server listens on 127.0.0.1 only (the next
+free port when --port is taken, as it says): from another machine, forward the port
+(ssh -L 8080:127.0.0.1:8080 host).
 
 The page plays the motion (timeline, play/pause, speed, loop, clip picker), draws thrust arrows
 (length proportional to T/T_max, along the exhaust), sole corners green in contact, the centre of
@@ -69,6 +72,9 @@ def _view(args: argparse.Namespace) -> int:
         robot, clips, port=args.port, play=args.play, skeleton_offset=args.skeleton_offset
     )
     shown = f"{len(clips)} clip(s) from {args.path}" if clips else f"robot {robot.name}"
+    moved = app.port_note()
+    if moved:
+        print(f"motionkit view: {moved}", flush=True)
     print(f"motionkit view: {shown} at {app.url} (Ctrl-C to stop)", flush=True)
     try:
         app.wait()

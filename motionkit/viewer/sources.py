@@ -1,7 +1,9 @@
 """What `motionkit view PATH` shows: a clip, a folder of clips or a training run, checked up front.
 
 Every clip's index and metadata are read (and checked) before the server starts; the motion of a
-clip is read only when it is shown, and a whole read checks the file's CRCs.
+clip is read only when it is shown, and must then pass the checks of `dataset validate` (a clip
+made for another model of the robot, with the same names, is shown with a warning). Every text a
+clip carries reaches the page escaped (`literal`): the page renders Markdown and raw HTML.
 
 Optional extras a clip may carry, drawn when present:
 - waypoints: metadata key "waypoints" (the config or metrics dict), a list of [x, y, z] [m];
@@ -13,7 +15,9 @@ Optional extras a clip may carry, drawn when present:
 
 from __future__ import annotations
 
+import html
 import json
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,7 +25,8 @@ from typing import Any
 
 import numpy as np
 
-from motionkit.dataset import Metadata, Trajectory, corner_names, read, read_metadata
+from motionkit.dataset import Metadata, Trajectory, corner_names, read_metadata
+from motionkit.dataset.validate import read_valid
 from motionkit.errors import DatasetError, ViewerError
 from motionkit.robot import Robot
 
@@ -53,7 +58,11 @@ class ClipInfo:
 
     @property
     def joint_names(self) -> tuple[str, ...]:
-        return tuple(json.loads(self.record["joint_names"]))
+        return self.names("joint")
+
+    def names(self, kind: str) -> tuple[str, ...]:
+        """The clip's joint, jet or foot names (`kind`), from its checked metadata."""
+        return tuple(json.loads(self.record[f"{kind}_names"]))
 
 
 def resolve_clips(path: Path | str) -> list[ClipInfo]:
@@ -64,8 +73,8 @@ def resolve_clips(path: Path | str) -> list[ClipInfo]:
         files = [p for p in path.rglob("*.mcap") if p.is_file() and not p.name.startswith(".")]
         if not files:
             raise ViewerError(f"{path}: no .mcap clips in this folder (searched recursively)")
-    elif path.is_file():
-        files = [path]
+    elif path.exists():
+        files = [path]  # anything but a regular file is refused when read
     else:
         raise ViewerError(f"{path}: no such file or folder")
     clips = []
@@ -82,11 +91,17 @@ def resolve_clips(path: Path | str) -> list[ClipInfo]:
 def check_robot(clip: ClipInfo, robot: Robot) -> str:
     """ "" when the clip fits the robot; a warning when only the model hash differs (the same
     joints, e.g. another icub-models release); a ViewerError when the joints differ."""
-    if clip.joint_names != robot.joint_names:
-        raise ViewerError(
-            f"{clip.path}: the clip's joints {list(clip.joint_names)} are not those of robot "
-            f"'{robot.name}' {list(robot.joint_names)}; pass its robot with --urdf/--spec"
-        )
+    expected = {
+        "joint": robot.joint_names,
+        "jet": tuple(jet.name for jet in robot.spec.jets),
+        "foot": tuple(foot.side for foot in robot.spec.feet),
+    }
+    for kind, names in expected.items():
+        if clip.names(kind) != names:
+            raise ViewerError(
+                f"{clip.path}: the clip's {kind}s {list(clip.names(kind))} are not those of robot "
+                f"'{robot.name}' {list(names)}; pass its robot with --urdf/--spec"
+            )
     try:
         corners = json.loads(clip.record.get("corner_names", "[]"))  # absent in older clips
     except json.JSONDecodeError as exc:
@@ -105,10 +120,11 @@ def check_robot(clip: ClipInfo, robot: Robot) -> str:
     return ""
 
 
-def load_motion(clip: ClipInfo) -> Trajectory:
-    """The clip's motion (CRCs checked), or a ViewerError naming the file."""
+def load_motion(clip: ClipInfo, robot: Robot) -> Trajectory:
+    """The clip's motion, checked as `dataset validate` checks it against `robot` (another model
+    of the robot allowed), or a ViewerError naming the file and the failed check."""
     try:
-        return read(clip.path)
+        return read_valid(clip.path, robot, other_model=True)
     except DatasetError as exc:
         raise ViewerError(str(exc)) from exc
 
@@ -153,27 +169,42 @@ def contact_forces(trajectory: Trajectory, corners: Sequence[str]) -> np.ndarray
 
 
 def describe(clip: ClipInfo, warning: str = "") -> str:
-    """Markdown: what the page shows (clip, source, labels, metrics)."""
+    """Markdown: what the page shows (clip, source, labels, metrics); every text from the clip
+    (or naming it) goes in `literal`."""
     meta = clip.metadata
     source = meta.source
     lines = [
-        f"**{clip.name}** — {meta.kind}, made by {meta.generator}",
+        f"**{literal(clip.name)}** — {literal(meta.kind)}, made by {literal(meta.generator)}",
         "",
-        f"{clip.frames} frames, {clip.duration:.2f} s at {clip.rate:.1f} Hz; robot {meta.robot}",
+        f"{clip.frames} frames, {clip.duration:.2f} s at {clip.rate:.1f} Hz; "
+        f"robot {literal(meta.robot)}",
         "",
-        f"`{clip.path}`",
+        f"file {literal(str(clip.path))}",
     ]
     if source.clip or source.file:
-        lines += ["", f"source: {source.clip or ''} {f'({source.file})' if source.file else ''}"]
+        file = f" ({source.file})" if source.file else ""
+        lines += ["", f"source: {literal(source.clip + file)}"]
     if source.licence:
-        lines += ["", f"licence: {source.licence}"]
+        lines += ["", f"licence: {literal(source.licence)}"]
     if warning:
-        lines += ["", f"⚠ {warning}"]
+        lines += ["", f"⚠ {literal(warning)}"]
     scalars = {k: v for k, v in meta.metrics.items() if isinstance(v, int | float | str)}
     if scalars:
         lines += ["", "| metric | value |", "|---|---|"]
-        lines += [f"| {k} | {_short(v)} |" for k, v in sorted(scalars.items())]
+        lines += [f"| {literal(k)} | {literal(_short(v))} |" for k, v in sorted(scalars.items())]
     return "\n".join(lines)
+
+
+# Markdown's inline punctuation: emphasis, code, links and images, table cells, strikethrough
+_MARKDOWN = re.compile(r"([\\`*_\[\]()!|~])")
+
+
+def literal(text: str) -> str:
+    """`text` for a Markdown page that renders raw HTML, shown as typed, within a line: on one
+    line, Markdown punctuation backslash-escaped (no emphasis, code, link, image or table cell),
+    then HTML-escaped (no tag, entity or attribute)."""
+    flat = " ".join(text.split())
+    return html.escape(_MARKDOWN.sub(r"\\\1", flat), quote=True)
 
 
 def _short(value: float | int | str) -> str:

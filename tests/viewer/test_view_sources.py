@@ -137,7 +137,7 @@ def test_corrupt_files_name_the_file(corrupt: dict[str, Path]) -> None:
             resolve_clips(corrupt[name])
     clip = resolve_clips(corrupt["flipped"])[0]  # the index is intact...
     with pytest.raises(ViewerError, match=r"flipped\.mcap.*(CRC|corrupt)"):
-        load_motion(clip)  # ...the motion is not
+        load_motion(clip, ironcub())  # ...the motion is not
 
 
 def test_cli_fails_before_the_server_starts(
