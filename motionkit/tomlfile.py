@@ -9,16 +9,16 @@ from pathlib import Path
 from typing import Any, TypeVar, get_args, get_origin, get_type_hints
 
 from motionkit.errors import MotionkitError
+from motionkit.inputs import read_text
 
 T = TypeVar("T")
 
 
 def read_toml(path: Path, what: str, error: type[MotionkitError]) -> dict[str, Any]:
     """The parsed file, or `error` naming the file and what is wrong with it."""
+    text = read_text(path, error, what)  # regular files only, strict UTF-8
     try:
-        return tomllib.loads(Path(path).read_text())
-    except OSError as exc:
-        raise error(f"{path}: cannot read {what} ({exc.strerror})") from exc
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise error(f"{path}: not valid TOML ({exc})") from exc
 

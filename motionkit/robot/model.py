@@ -125,7 +125,6 @@ class Robot:
 def _prepare(model: RobotModel, spec: RobotSpec) -> tuple[RobotModel, tuple[str, ...]]:
     """Check the model against the spec, lock the joints the spec does not actuate, and replace
     placeholder limits; raise RobotModelError naming what is missing or invalid."""
-    _check_name_lists(spec)
     if model.root != spec.root:
         raise RobotModelError(
             f"{model.source}: the root link is '{model.root}', the spec says '{spec.root}'"
@@ -169,23 +168,6 @@ def _prepare(model: RobotModel, spec: RobotSpec) -> tuple[RobotModel, tuple[str,
                 f"{spec.source}: posture {name} = {angle} is outside [{joint.lower}, {joint.upper}]"
             )
     return model, tuple(locked)
-
-
-def _check_name_lists(spec: RobotSpec) -> None:
-    """Every list of names in the spec holds names: a string where a list belongs ("l_elbow"
-    for ["l_elbow"]) arrives here split into its letters."""
-    lists = {"joints": spec.joints, "elbows": spec.elbows, "hands": spec.hands}
-    lists |= {f"feet.{foot.side}.corners": foot.corners for foot in spec.feet}
-    for key, names in lists.items():
-        odd = next((n for n in names if not isinstance(n, str) or not n), None)
-        if odd is not None:
-            raise RobotModelError(f"{spec.source}: '{key}' holds {odd!r}, not a name")
-        if len(names) > 1 and all(len(n) == 1 for n in names):
-            word = "".join(names)
-            raise RobotModelError(
-                f"{spec.source}: '{key}' is the string {word!r}, where a list of names belongs "
-                f'(write ["{word}"])'
-            )
 
 
 def cache_dir() -> Path:

@@ -84,7 +84,7 @@ CASES: dict[str, tuple[str | bytes, str, tuple[str, ...]]] = {
     "a string where a list belongs": (
         GOOD,
         TOY_SPEC.replace('elbows = ["elbow"]', 'elbows = "elbow"'),
-        (r"elbows", r"list"),
+        (r"toy\.toml: 'elbows' should be \[str, \.\.\.\], got 'elbow'",),
     ),
     "missing frame": (
         GOOD,
