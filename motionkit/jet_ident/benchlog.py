@@ -8,6 +8,10 @@ an entry of `BenchLog.metadata`. The first other line is the header; it must nam
     throttle_pct  throttle command sent to the engine's ECU [%], 0 to 100
     thrust_n      thrust measured by the load cell [N]
 
+A header cell is matched by its quantity and unit, without regard to case: `thrust_N`,
+`Thrust [N]`, `thrust (newton)` and `thrust` all name the thrust in newtons; a column in another
+unit (`thrust_kN`, `time [ms]`) is refused, naming it.
+
 Errors name the file and the line (1-based, counting comments and the header). Thrust in the
 wrong unit is caught by range: a value above MAX_THRUST_N is taken for grams (a P250 gives about
 23,000 g), and a log whose thrust never exceeds KILONEWTON_CEILING while the throttle passes
@@ -19,6 +23,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -28,6 +33,9 @@ from motionkit.errors import JetIdentError
 from motionkit.outputs import write_text_atomic
 
 COLUMNS = ("time_s", "throttle_pct", "thrust_n")
+# each column's quantity and the spellings of its unit
+UNITS = {"time": ("s", "sec", "second", "seconds"), "throttle": ("pct", "%", "percent"),
+         "thrust": ("n", "newton", "newtons")}  # fmt: skip
 MAX_THRUST_N = 1000.0  # small turbojets give at most a few hundred newtons
 MIN_THRUST_N = -50.0  # load-cell offset and ringing may dip below zero, not this far
 KILONEWTON_CEILING = 5.0  # N; a running jet past 50 % throttle gives far more than this
@@ -89,15 +97,9 @@ def parse_log(text: str, source: str = "<log>") -> BenchLog:
             rows.append((number, cells))
     if header is None:
         raise JetIdentError(f"{source}: no header line; expected columns {', '.join(COLUMNS)}")
-    missing = [c for c in COLUMNS if c not in header]
-    if missing:
-        raise JetIdentError(
-            f"{source}: line {header_line}: missing column(s) {', '.join(missing)}; the header "
-            f"has {', '.join(header)}; expected {', '.join(COLUMNS)} (units s, %, N)"
-        )
+    index = _columns(header, f"{source}: line {header_line}")
     if len(rows) < 2:
         raise JetIdentError(f"{source}: {len(rows)} data row(s); a log needs at least 2")
-    index = [header.index(c) for c in COLUMNS]
     values = np.empty((len(rows), 3))
     lines = np.array([n for n, _ in rows])
     for i, (number, cells) in enumerate(rows):
@@ -110,6 +112,31 @@ def parse_log(text: str, source: str = "<log>") -> BenchLog:
     log = BenchLog(values[:, 0], values[:, 1], values[:, 2], Path(source).stem, metadata)
     check_log(log, source, lines)
     return log
+
+
+def _columns(header: list[str], where: str) -> list[int]:
+    """The header positions of time, throttle and thrust (see the module doc)."""
+    found: dict[str, int] = {}
+    for position, cell in enumerate(header):
+        words = re.split(r"[\s_\[\]()]+", cell.strip().lower())
+        quantity, unit = words[0], "".join(words[1:])
+        if quantity not in UNITS:
+            continue
+        if unit and unit not in UNITS[quantity]:
+            written = cell.strip()[len(quantity) :].strip(" _[]()")
+            expected = {"time": "s", "throttle": "%", "thrust": "N"}[quantity]
+            raise JetIdentError(f"{where}: column '{cell}' is in {written}; expected {expected}")
+        if quantity in found:
+            first = header[found[quantity]]
+            raise JetIdentError(f"{where}: columns '{first}' and '{cell}' both give the {quantity}")
+        found[quantity] = position
+    missing = [c for c, quantity in zip(COLUMNS, UNITS, strict=True) if quantity not in found]
+    if missing:
+        raise JetIdentError(
+            f"{where}: missing column(s) {', '.join(missing)}; the header has "
+            f"{', '.join(header)}; expected {', '.join(COLUMNS)} (units s, %, N)"
+        )
+    return [found[quantity] for quantity in UNITS]
 
 
 def check_log(log: BenchLog, source: str, lines: np.ndarray | None = None) -> None:

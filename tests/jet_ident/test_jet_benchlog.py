@@ -52,9 +52,35 @@ def _error(text: str) -> str:
     return str(info.value)
 
 
+@pytest.mark.parametrize(
+    "header",
+    [
+        "time_s,throttle_pct,thrust_N",
+        "Time [s],Throttle [%],Thrust [N]",
+        "TIME (s),throttle,thrust",
+    ],
+)
+def test_header_spellings_of_the_same_units(header: str) -> None:
+    log = parse_log(GOOD.replace("time_s,throttle_pct,thrust_n", header))
+    np.testing.assert_allclose(log.thrust, [15.2, 15.9, 18.5, 30.0])
+    np.testing.assert_allclose(log.time, [0.0, 0.01, 0.02, 0.03])
+
+
 def test_missing_column_is_named() -> None:
-    message = _error("time_s,throttle_pct,thrust_kn\n0,0,0.015\n0.01,0,0.015\n")
-    assert "bench.csv: line 1" in message and "thrust_n" in message and "thrust_kn" in message
+    message = _error("time_s,throttle_pct,force_n\n0,0,15\n0.01,0,15\n")
+    assert message.startswith("bench.csv: line 1: missing column(s) thrust_n; the header has")
+
+
+@pytest.mark.parametrize(
+    ("header", "message"),
+    [
+        ("time_s,throttle_pct,thrust_kN", "column 'thrust_kN' is in kN; expected N"),
+        ("time [ms],throttle_pct,thrust_n", "column 'time [ms]' is in ms; expected s"),
+        ("time_s,throttle_pct,thrust_n,Thrust [N]", "'thrust_n' and 'Thrust [N]' both give"),
+    ],
+)
+def test_other_units_and_doubled_columns_are_refused(header: str, message: str) -> None:
+    assert message in _error(GOOD.replace("time_s,throttle_pct,thrust_n", header))
 
 
 def test_non_monotonic_time_names_the_line() -> None:
