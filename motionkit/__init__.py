@@ -13,6 +13,9 @@ import importlib
 from types import ModuleType
 
 from motionkit.errors import MotionkitError
+from motionkit.jaxcpu import avoid_lapack_deadlock
+
+avoid_lapack_deadlock()
 
 __version__ = "0.1.0"
 STAGES = (
