@@ -180,6 +180,8 @@ def format_log(log: BenchLog) -> str:
 
 
 def write_log(path: Path, log: BenchLog) -> None:
-    """Write `log` as CSV, all or nothing."""
-    check_log(log, str(path))
-    write_text_atomic(Path(path), format_log(log))
+    """Write `log` as CSV, all or nothing, and only if the text reads back as a valid log (an
+    existing file is never replaced by one that `read_log` would refuse)."""
+    text = format_log(log)
+    parse_log(text, f"{path} (not written)")
+    write_text_atomic(Path(path), text)
