@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import re
 import signal
 import sys
+import threading
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -167,15 +169,39 @@ def values_not_options(argv: Sequence[str]) -> list[str]:
     return [f" {arg}" if _NEGATIVE_LIST.match(arg) else arg for arg in argv]
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread like Ctrl-C's KeyboardInterrupt: the same cleanup runs
+    (worker processes ended, temporary files removed, a pipeline stage's previous output kept)."""
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    if hasattr(signal, "SIGPIPE"):  # `motionkit ... | head` ends quietly
-        signal.signal(signal.SIGPIPE, signal.SIG_DFL)
-    args = build_parser().parse_args(values_not_options(sys.argv[1:] if argv is None else argv))
+    """The command's exit status: 0, 1 (some items failed), 2 (an error, one line), 130
+    (interrupted by Ctrl-C) or 143 (SIGTERM)."""
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminate) if in_main_thread else None
     try:
+        args = build_parser().parse_args(values_not_options(sys.argv[1:] if argv is None else argv))
         return args.handler(args) or 0
     except MotionkitError as exc:
         print(f"motionkit: error: {exc}", file=sys.stderr)
         return 2
+    except Terminated:
+        print("motionkit: terminated", file=sys.stderr)
+        return 128 + signal.SIGTERM
+    except KeyboardInterrupt:
+        print("motionkit: interrupted", file=sys.stderr)
+        return 128 + signal.SIGINT
+    except BrokenPipeError:  # `motionkit ... | head`: the reader left; end quietly
+        # (not SIGPIPE's default action: it would kill this process on a dead worker's pipe)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141  # 128 + SIGPIPE, what a shell shows for a process the signal ended
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,6 @@
-"""Outputs are all or nothing: written to a temporary file beside the target, then renamed."""
+"""Outputs are all or nothing: written to a temporary file beside the target, then renamed; and
+they stay in their folder: only names a folder's manifest lists are replaced, and a name from a
+user's file cannot point outside the folder."""
 
 from __future__ import annotations
 
@@ -6,9 +8,13 @@ import contextlib
 import json
 import math
 import os
-from collections.abc import Iterator
+import re
+import tempfile
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import IO, Any
+
+from motionkit.errors import MotionkitError
 
 
 @contextlib.contextmanager
@@ -45,3 +51,115 @@ def strict_json(value: Any) -> Any:
 def write_json_atomic(path: Path, value: Any) -> None:
     """`value` as indented strict JSON (NaN and infinities as null), all or nothing."""
     write_text_atomic(path, json.dumps(strict_json(value), indent=2, allow_nan=False) + "\n")
+
+
+# -- output folders -------------------------------------------------------------------------------
+# motionkit writes into a folder only the top-level names its manifest lists (recorded before the
+# writes): a name the folder holds but the manifest does not is the user's and is never replaced.
+MANIFEST = ".motionkit-files.json"
+_TEMPORARY = re.compile(r"^\..+\.(\d+)\.tmp$")  # atomic_output's temporary: .NAME.PID.tmp
+
+
+def inside(folder: Path, name: str, error: type[MotionkitError]) -> Path:
+    """`folder / name`, or `error` when that path lies outside `folder` (`../x`, `/x`, a link
+    out): names taken from user files never become paths elsewhere."""
+    path = Path(folder) / name
+    root, target = Path(folder).resolve(), path.resolve()
+    if target != root and root not in target.parents:
+        raise error(f"{name!r}: would be written outside {folder}; use a plain name")
+    return path
+
+
+def written_names(folder: Path) -> set[str] | None:
+    """The names the manifest of `folder` lists; None when it has none."""
+    try:
+        data = json.loads((Path(folder) / MANIFEST).read_text())
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError):
+        return set()  # unreadable: vouches for nothing
+    files = data.get("files") if isinstance(data, dict) else None
+    return {n for n in files if isinstance(n, str)} if isinstance(files, list) else set()
+
+
+def foreign_entries(folder: Path, names: Iterable[str] | None = None) -> list[str]:
+    """The entries of `folder` (of `names` only, if given) that motionkit did not write:
+    neither in its manifest nor a leftover temporary of an atomic write."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        return []
+    listed = written_names(folder) or set()
+    present = {p.name for p in folder.iterdir()} if names is None else set(names)
+    return sorted(
+        n
+        for n in present
+        if n not in listed and n != MANIFEST and not _TEMPORARY.match(n) and (folder / n).exists()
+    )
+
+
+def check_out(folder: Path, names: Iterable[str], error: type[MotionkitError]) -> Path:
+    """Refuse up front (before any long work, writing nothing) an output folder that is a file,
+    cannot be written, or holds one of `names` (top-level entries to write) that motionkit did
+    not write there."""
+    folder = Path(folder)
+    names = list(names)
+    for name in names:
+        inside(folder, name, error)
+    existing = next(p for p in (folder, *folder.absolute().parents) if p.exists())
+    if not existing.is_dir():
+        raise error(f"{existing}: is a file, not a folder; give --out a folder")
+    try:
+        tempfile.TemporaryFile(dir=existing).close()
+    except OSError as exc:
+        raise error(f"{folder}: cannot write there ({exc.strerror or exc})") from exc
+    foreign = foreign_entries(folder, names)
+    if foreign:
+        raise error(
+            f"{folder} holds {', '.join(foreign)}, not written by motionkit; they would be "
+            "replaced: move them or choose another --out"
+        )
+    return folder
+
+
+def claim_out(folder: Path, names: Iterable[str], error: type[MotionkitError]) -> Path:
+    """`check_out`, then create `folder` and add `names` to its manifest (before they are
+    written, so that an interrupted run leaves no file the manifest does not vouch for)."""
+    names = set(names)
+    check_out(folder, names, error)
+    listed = written_names(folder) or set()
+    if not names <= listed:
+        record_names(folder, listed | names)
+    return Path(folder)
+
+
+@contextlib.contextmanager
+def claimed_out(folder: Path, names: Iterable[str], error: type[MotionkitError]) -> Iterator[Path]:
+    """`claim_out` for a block whose writes may all fail: a folder it made and the block left
+    empty (but for the manifest) is removed again."""
+    folder = Path(folder)
+    made = not folder.exists()
+    claim_out(folder, names, error)
+    try:
+        yield folder
+    finally:
+        if made and [p.name for p in folder.iterdir()] == [MANIFEST]:
+            (folder / MANIFEST).unlink()
+            folder.rmdir()
+
+
+def record_names(folder: Path, names: Iterable[str]) -> None:
+    """Write the manifest of `folder`: the top-level names motionkit wrote there."""
+    files = sorted(set(names) - {MANIFEST})
+    write_text_atomic(Path(folder) / MANIFEST, json.dumps({"files": files}, indent=1) + "\n")
+
+
+def remove_temporaries(folder: Path, pids: Iterable[int]) -> None:
+    """Delete the atomic-write temporaries the processes `pids` left in `folder` (and below)
+    when they were stopped mid-write."""
+    pids = {str(p) for p in pids}
+    if not Path(folder).is_dir():
+        return
+    for path in Path(folder).rglob(".*.tmp"):
+        match = _TEMPORARY.match(path.name)
+        if match and match[1] in pids:
+            path.unlink(missing_ok=True)

@@ -207,6 +207,9 @@ def format_log(log: BenchLog) -> str:
 
 
 def write_log(path: Path, log: BenchLog) -> None:
-    """Write `log` as CSV, all or nothing."""
+    """Write `log` as CSV, all or nothing, and only if the text reads back as a valid log (an
+    existing file is never replaced by one that `read_log` would refuse)."""
     check_log(log, str(path))
-    write_text_atomic(Path(path), format_log(log))
+    text = format_log(log)
+    parse_log(text, f"{path} (not written)")  # what the CSV's rounding makes of it
+    write_text_atomic(Path(path), text)

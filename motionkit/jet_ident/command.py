@@ -10,6 +10,7 @@ from motionkit.errors import JetIdentError
 from motionkit.extras import require
 from motionkit.jet_ident.benchlog import COLUMNS, read_log
 from motionkit.jet_ident.config import JetIdentConfig
+from motionkit.outputs import check_out
 from motionkit.recipes import argument
 
 # The handlers import the JAX modules when they run: `motionkit` works without the extra.
@@ -118,6 +119,9 @@ def _simulate(args: argparse.Namespace) -> int:
             raise JetIdentError(f"--duration {args.duration:g}: at least 10 s")
         bench = replace(bench, duration_s=args.duration)
     seed = bench.seed if args.seed is None else args.seed
+    if args.out.is_dir():
+        raise JetIdentError(f"--out {args.out}: is a folder; give the CSV file to write")
+    check_out(args.out.parent, [], JetIdentError)  # writable, before the simulation
     run = synthetic_run(bench, seed)
     write_log(args.out, run.log)
     log = run.log

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from motionkit.errors import JetIdentError
 from motionkit.jet_ident.baselines import FirstOrderLag, GreyBox, fit_first_order, fit_grey_box
 from motionkit.jet_ident.benchlog import BenchLog, read_log
 from motionkit.jet_ident.config import JetIdentConfig
@@ -23,10 +24,11 @@ from motionkit.jet_ident.evaluate import (
 )
 from motionkit.jet_ident.export import baselines_metadata, save_model
 from motionkit.jet_ident.train import TrainResult, train_lstm
-from motionkit.outputs import write_text_atomic
+from motionkit.outputs import check_out, claim_out, write_text_atomic
 
 SMOOTHING_S = (0.3, 0.5, 0.7, 1.0)  # baseline derivative filters tried; validation picks one
 LSTM, GREY_BOX, FIRST_ORDER = "LSTM", "grey-box 2nd order", "first-order lag"
+OUTPUTS = ("model.npz", "config.toml", "report.json", "report.txt", "history.csv", "validation.png")
 
 
 @dataclass
@@ -106,7 +108,8 @@ def fit_logs(paths: list[Path], out: Path, config: JetIdentConfig) -> dict[str, 
     write OUT/model.npz, config.toml, report.json, report.txt, history.csv (and
     validation.png with matplotlib); returns the report."""
     warmup = config.train.warmup
-    logs = [read_log(path) for path in paths]  # every log checked before the long part
+    out = check_out(Path(out), OUTPUTS, JetIdentError)  # before the long part, like the logs
+    logs = [read_log(path) for path in paths]
     names = [log.name for log in logs]
     print(
         f"{len(logs)} log(s): "
@@ -115,7 +118,7 @@ def fit_logs(paths: list[Path], out: Path, config: JetIdentConfig) -> dict[str, 
     result = identify(logs, config, lambda line: print(line, flush=True))
     table = report_table(result.metrics, result.floor)
     report: dict[str, Any] = {
-        "logs": [str(p) for p in paths],
+        "logs": [_shown(Path(p), out) for p in paths],
         "validation_fraction": config.train.validation_fraction,
         "warmup": warmup,
         "metrics": {name: m.to_dict() for name, m in result.metrics.items()},
@@ -134,6 +137,7 @@ def fit_logs(paths: list[Path], out: Path, config: JetIdentConfig) -> dict[str, 
         "config": config.to_dict(),
         "report": report,
     }
+    claim_out(out, OUTPUTS, JetIdentError)
     save_model(out / "model.npz", result.training.params, metadata)
     write_text_atomic(out / "config.toml", config.to_toml())
     write_text_atomic(out / "report.json", json.dumps(report, indent=2) + "\n")
@@ -152,3 +156,12 @@ def fit_logs(paths: list[Path], out: Path, config: JetIdentConfig) -> dict[str, 
         print(f"wrote {out / 'validation.png'}")
     print(f"wrote {out}/model.npz, config.toml, report.json, report.txt, history.csv")
     return report
+
+
+def _shown(log: Path, out: Path) -> str:
+    """A log's path as the report gives it: relative to OUT when it lies there (the folder then
+    stays valid where it is moved), else as given."""
+    try:
+        return str(log.resolve().relative_to(out.resolve()))
+    except ValueError:
+        return str(log)

@@ -1,7 +1,9 @@
 """Download CMU Graphics Lab motion-capture clips (ASF skeleton + AMC motion) into the cache.
 
-Every file is streamed to a temporary file beside its target, checked, and only then renamed, so
-the cache never holds a partial or wrong file, also when the download fails or is interrupted.
+Files come over HTTPS (a redirect to plain HTTP is refused). Each is streamed to a temporary file
+beside its target, within a size bound; a clip's AMC and ASF are renamed into the cache only when
+both parse (the motion against its skeleton), so the cache never holds a partial or wrong file,
+also when the download fails or is interrupted.
 """
 
 from __future__ import annotations
@@ -22,8 +24,9 @@ from motionkit.outputs import atomic_output
 from motionkit.progress import LineProgress
 from motionkit.robot.model import cache_dir
 
-CMU_BASE_URL = "http://mocap.cs.cmu.edu"
+CMU_BASE_URL = "https://mocap.cs.cmu.edu"
 _CHUNK = 64 * 1024
+MAX_BYTES = {".asf": 1 << 20, ".amc": 64 << 20}  # CMU's: ASF ~10 KB, AMC up to ~20 MB
 _CLIP_ID = re.compile(r"(\d{1,3})_(\d{1,2})")
 _FRAME_LINE = re.compile(rb"^[ \t]*\d+[ \t]*\r?$", re.MULTILINE)
 _AMC_HEADERS = (b":degrees", b":radians", b":fully-specified")
@@ -87,12 +90,47 @@ def fetch_clips(
         remote = f"{base}/subjects/{clip.subject_code}"
         amc = folder / f"{clip}.amc"
         asf = folder / f"{clip.subject_code}.asf"
-        # AMC first: a wrong trial number then costs no ASF download.
-        for path in (amc, asf):
-            if not _is_valid_file(path):
-                _download(f"{remote}/{path.name}", path, str(clip), progress, timeout)
+        missing = [path for path in (amc, asf) if not _is_valid_file(path)]
+        if missing:
+            _download_clip(missing, amc, asf, remote, str(clip), progress, timeout)
         paths.append((amc, asf))
     return paths
+
+
+def _download_clip(
+    missing: list[Path],
+    amc: Path,
+    asf: Path,
+    remote: str,
+    clip: str,
+    progress: bool,
+    timeout: float,
+) -> None:
+    """Download the `missing` files of a clip (AMC first: a wrong trial number then costs no
+    ASF download) and move them into the cache once the motion parses with its skeleton."""
+    made_folder = not amc.parent.exists()
+    try:
+        with contextlib.ExitStack() as renames:  # each temporary renamed as the stack closes
+            local = {}
+            for path in missing:
+                stream = renames.enter_context(atomic_output(path))
+                _download(f"{remote}/{path.name}", path.suffix, stream, clip, progress, timeout)
+                local[path] = Path(stream.name)
+            _check_parses(local.get(amc, amc), local.get(asf, asf), f"clip {clip}: {remote}")
+    except BaseException:
+        if made_folder:  # leave no empty subject folder behind
+            with contextlib.suppress(OSError):
+                amc.parent.rmdir()
+        raise
+
+
+def _check_parses(amc: Path, asf: Path, where: str) -> None:
+    from motionkit.mocap.asf_amc import read_amc, read_asf
+
+    try:
+        read_amc(amc, read_asf(asf))
+    except MocapError as exc:
+        raise FetchError(f"{where}: the files do not parse as an ASF/AMC clip: {exc}") from exc
 
 
 def _is_valid_file(path: Path) -> bool:
@@ -119,29 +157,47 @@ def _content_problem(suffix: str, data: bytes) -> str | None:
     return None
 
 
-def _download(url: str, path: Path, clip: str, progress: bool, timeout: float) -> None:
-    """Stream `url` into `path` via a temporary file; on any failure raise and write nothing."""
-    made_folder = not path.parent.exists()
-    try:
-        with atomic_output(path) as stream:
-            problem = _stream(url, stream, clip, progress, timeout)
-            if problem is None:
-                stream.flush()
-                problem = _content_problem(path.suffix, Path(stream.name).read_bytes())
-            if problem is not None:
-                raise FetchError(f"clip {clip}: {url}: {problem}")
-    except BaseException:
-        if made_folder:  # leave no empty subject folder behind
-            with contextlib.suppress(OSError):
-                path.parent.rmdir()
-        raise
+def _download(
+    url: str, suffix: str, stream: IO[bytes], clip: str, progress: bool, timeout: float
+) -> None:
+    """Stream `url` into `stream` and check what came; FetchError naming the URL when wrong."""
+    problem = _stream(url, stream, clip, progress, timeout, MAX_BYTES[suffix])
+    if problem is None:
+        stream.flush()
+        problem = _content_problem(suffix, Path(stream.name).read_bytes())
+    if problem is not None:
+        raise FetchError(f"clip {clip}: {url}: {problem}")
 
 
-def _stream(url: str, stream: IO[bytes], clip: str, progress: bool, timeout: float) -> str | None:
-    """Copy the body of `url` into `stream`; return what was wrong with the response, or None."""
+class _NoDowngrade(urllib.request.HTTPRedirectHandler):
+    """Follow redirects, except from HTTPS to plain HTTP."""
+
+    def redirect_request(
+        self,
+        req: urllib.request.Request,
+        fp: IO[bytes],
+        code: int,
+        msg: str,
+        headers: http.client.HTTPMessage,
+        newurl: str,
+    ) -> urllib.request.Request | None:
+        if req.full_url.startswith("https:") and not newurl.startswith("https:"):
+            refused = "redirect to plain HTTP refused"
+            raise urllib.error.HTTPError(newurl, code, refused, headers, fp)
+        return super().redirect_request(req, fp, code, msg, headers, newurl)
+
+
+_OPENER = urllib.request.build_opener(_NoDowngrade)
+
+
+def _stream(
+    url: str, stream: IO[bytes], clip: str, progress: bool, timeout: float, limit: int
+) -> str | None:
+    """Copy the body of `url` (at most `limit` bytes) into `stream`; return what was wrong with
+    the response, or None."""
     request = urllib.request.Request(url, headers={"User-Agent": f"motionkit/{__version__}"})
     try:
-        response = urllib.request.urlopen(request, timeout=timeout)
+        response = _OPENER.open(request, timeout=timeout)
     except urllib.error.HTTPError as error:
         error.close()
         return f"HTTP {error.code} {error.reason}"
@@ -157,12 +213,16 @@ def _stream(url: str, stream: IO[bytes], clip: str, progress: bool, timeout: flo
             return "got an HTML page instead of the file (the clip probably does not exist)"
         length = response.headers.get("Content-Length")
         total = int(length) if length and length.isdigit() else None
+        if total is not None and total > limit:
+            return f"{total} bytes announced, more than the {limit} a clip file may have"
         received = 0
         bar = _progress_bar(url.rsplit("/", 1)[-1], total) if progress else None
         try:
             while chunk := response.read(_CHUNK):
                 stream.write(chunk)
                 received += len(chunk)
+                if received > limit:
+                    return f"more than the {limit} bytes a clip file may have"
                 if bar is not None:
                     bar.update(len(chunk))
         except (OSError, http.client.HTTPException) as error:

@@ -1,6 +1,7 @@
 """Stage caching: a stage's key is the hash of everything it reads (input files, resolved
 config, the keys of the stages before it, its source code and main libraries); a stage whose
-key and output are unchanged is not run again."""
+key and output are unchanged is not run again, and one that runs replaces its output only when
+it succeeds."""
 
 from __future__ import annotations
 
@@ -14,9 +15,11 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from motionkit.outputs import write_text_atomic
+from motionkit.errors import PipelineError
+from motionkit.outputs import foreign_entries, record_names, write_text_atomic
 
 PACKAGE = Path(__file__).resolve().parent.parent  # the motionkit package folder
+STAGING = ".staging"  # OUT/.staging/NAME: a stage's folder while it runs
 
 
 def digest(*parts: Any) -> str:
@@ -77,23 +80,50 @@ def run_cached(
     work: Callable[[Path], str],
     force: bool = False,
 ) -> Outcome:
-    """Run `work(OUTPUT)` unless OUTPUT exists from a run with the same key; `work` returns
-    the line saying what it made. The output of an older key is removed first, and a failed
-    or interrupted stage removes what it wrote: no partial output is left."""
+    """Run `work(FOLDER)` unless OUTPUT exists from a run with the same key; `work` returns
+    the line saying what it made. It writes into a staging folder (OUT/.staging/NAME) that
+    replaces OUTPUT only when it succeeds: a failed or interrupted stage leaves the previous
+    output and its record as they were. An OUTPUT holding files motionkit did not write there
+    is refused before the work."""
     record_path = records / f"{stage}.json"
     if not force and output.exists() and record_path.exists():
         record = json.loads(record_path.read_text())
         if record.get("key") == key:
             return Outcome(stage, "cached", record["seconds"], record["made"], str(output), key)
-    record_path.unlink(missing_ok=True)  # a record never vouches for a folder being rewritten
-    shutil.rmtree(output, ignore_errors=True)
-    output.mkdir(parents=True)
+    foreign = foreign_entries(output)
+    if foreign:
+        raise PipelineError(
+            f"{output} holds {', '.join(foreign)}, not written by motionkit; the stage would "
+            "replace the folder: move them or choose another --out"
+        )
+    staging = output.parent / STAGING / output.name
+    shutil.rmtree(staging, ignore_errors=True)  # what an interrupted run left
+    staging.mkdir(parents=True)
     start = time.perf_counter()
     try:
-        made = work(output)
+        made = work(staging)
+        record_names(staging, (p.name for p in staging.iterdir()))
     except BaseException:
-        shutil.rmtree(output, ignore_errors=True)
+        shutil.rmtree(staging, ignore_errors=True)
         raise
+    record_path.unlink(missing_ok=True)  # no record vouches for a folder being swapped
+    _swap(staging, output)
     outcome = Outcome(stage, "ran", round(time.perf_counter() - start, 1), made, str(output), key)
     write_text_atomic(record_path, json.dumps(outcome.to_dict(), indent=2) + "\n")
     return outcome
+
+
+def _swap(staging: Path, output: Path) -> None:
+    """Put `staging` in the place of `output` (two renames; the old output back if the second
+    one does not happen), then delete the old output."""
+    old = staging.with_name(f"{staging.name}.old")
+    shutil.rmtree(old, ignore_errors=True)
+    if output.exists():
+        output.rename(old)
+    try:
+        staging.rename(output)
+    except BaseException:
+        if old.exists() and not output.exists():
+            old.rename(output)
+        raise
+    shutil.rmtree(old, ignore_errors=True)

@@ -31,7 +31,9 @@ Stages, in order, each into its folder of OUT:
 Every stage works on the same robot (--urdf/--spec; default iRonCub). A stage runs again only
 when what it reads changed: input files, its resolved recipe, the robot, the stages before it,
 motionkit's code for it or its main libraries (the hash is its key, kept in OUT/.pipeline/).
-A failing stage removes what it wrote, and the pipeline stops with status 2.
+A stage runs in OUT/.staging/ and replaces its folder only when it succeeds: a failing stage
+keeps the previous output and the pipeline stops with status 2 (130 on Ctrl-C, 143 on SIGTERM).
+Folders and files in OUT that motionkit did not write are never replaced (the run is refused).
 OUT/pipeline_summary.json holds the table printed at the end.
 
   motionkit pipeline                                   (the built-in sample, offline)

@@ -8,13 +8,15 @@ import time
 from pathlib import Path
 
 from motionkit.errors import MotionkitError, PipelineError
-from motionkit.outputs import write_text_atomic
-from motionkit.pipeline.cache import Outcome
+from motionkit.outputs import claim_out, write_text_atomic
+from motionkit.pipeline.cache import STAGING, Outcome
 from motionkit.pipeline.config import PipelineConfig
-from motionkit.pipeline.stages import STAGES, Context
+from motionkit.pipeline.stages import STAGE_FOLDERS, STAGES, Context
 from motionkit.robot import Robot
 
 STAGE_NAMES = tuple(name for name, _ in STAGES)
+# what a run writes in OUT: the stage folders, the cache records, the staging area, the summary
+OUT_NAMES = (*STAGE_FOLDERS, ".pipeline", STAGING, "pipeline_summary.json")
 
 
 def run_pipeline(
@@ -29,10 +31,11 @@ def run_pipeline(
     until: str | None = None,
 ) -> list[Outcome]:
     """Run every stage up to `until` (default: all) into its folder of `out` for `robot`;
-    PipelineError naming the stage when one fails (what it wrote is removed)."""
+    PipelineError naming the stage when one fails (its previous output is kept)."""
     if until is not None and until not in STAGE_NAMES:
         raise PipelineError(f"unknown stage '{until}'; the stages: {', '.join(STAGE_NAMES)}")
     ctx = Context(config, Path(out).resolve(), robot, mocap_dir, full, force, fetch)
+    claim_out(ctx.out, OUT_NAMES, PipelineError)
     start = time.perf_counter()
     outcomes = []
     last = STAGE_NAMES.index(until or STAGE_NAMES[-1])

@@ -283,6 +283,7 @@ def train(ctx: Context) -> Outcome:
     return ctx.run("train", parts, "train", work)
 
 
+STAGE_FOLDERS = ("walk", "flight", "jet", "datasets", "train")  # the stages', in order
 STAGES: tuple[tuple[str, Callable[[Context], Outcome]], ...] = (
     ("retarget", retarget),
     ("trajopt", trajopt),

@@ -4,24 +4,25 @@ progress lines, the quality table and OUT/retarget_summary.json (`run_retarget`)
 from __future__ import annotations
 
 import json
-import multiprocessing
 import re
 import sys
 import time as clock
 from collections.abc import Callable, Iterable
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from motionkit.dataset import Source
 from motionkit.errors import MotionkitError, RetargetError
-from motionkit.outputs import write_text_atomic
+from motionkit.outputs import claimed_out, inside, write_text_atomic
 from motionkit.progress import LineProgress
 from motionkit.retarget.config import RetargetConfig
 from motionkit.robot import Robot, ironcub
+from motionkit.workers import worker_pool
 
 MOCAP_SUFFIXES = (".bvh", ".amc")
+SUMMARY = "retarget_summary.json"
 _CMU_NAME = re.compile(r"(?:^|[^0-9])(\d{1,3}_\d{1,2})(?:[^0-9]|$)")
 
 # What a clean retargeted walk shows (the issue's acceptance figures); the summary flags the rest.
@@ -130,7 +131,7 @@ def retarget_clip(
         step = None if progress is None else (lambda t: progress(t + 1, total))
         trajectory, timings = retarget(motion.landmarks(), motion.rate, robot, config, source, step)
         solved = clock.perf_counter()
-        path = write(out / f"{clip.name}.mcap", trajectory, robot)
+        path = write(inside(out, f"{clip.name}.mcap", RetargetError), trajectory, robot)
         written = clock.perf_counter()
     except MotionkitError as exc:
         return ClipResult(clip.name, str(clip.path), None, error=str(exc))
@@ -163,12 +164,7 @@ def retarget_all(
     """Retarget every clip for `robot` (default iRonCub; in `jobs` processes when > 1);
     results in input order."""
     robot = robot or ironcub()
-    if not clips:
-        raise RetargetError("nothing to retarget: give files, folders or CMU clip ids")
-    names = [c.name for c in clips]
-    clash = sorted({n for n in names if names.count(n) > 1})
-    if clash:
-        raise RetargetError(f"two inputs would write the same output file: {clash}")
+    _check_names(clips)
     results: dict[int, ClipResult] = {}
     if jobs <= 1 or len(clips) == 1:
         for i, clip in enumerate(clips):
@@ -179,9 +175,7 @@ def retarget_all(
             if report is not None:
                 report(results[i], len(results), len(clips))
     else:
-        # spawned, not forked: a fork of a process that runs JAX or BLAS threads can deadlock
-        spawn = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=spawn) as pool:
+        with worker_pool(jobs, out) as pool:
             futures = {
                 pool.submit(retarget_clip, clip, out, config, robot): i
                 for i, clip in enumerate(clips)
@@ -192,6 +186,15 @@ def retarget_all(
                 if report is not None:
                     report(results[i], len(results), len(clips))
     return [results[i] for i in range(len(clips))]
+
+
+def _check_names(clips: list[ClipInput]) -> None:
+    if not clips:
+        raise RetargetError("nothing to retarget: give files, folders or CMU clip ids")
+    names = [c.name for c in clips]
+    clash = sorted({n for n in names if names.count(n) > 1})
+    if clash:
+        raise RetargetError(f"two inputs would write the same output file: {clash}")
 
 
 class _FrameBar:
@@ -216,14 +219,17 @@ def run_retarget(
 ) -> list[ClipResult]:
     """Retarget `clips` into `out` for `robot` (default iRonCub) with progress lines, the
     quality table and OUT/retarget_summary.json; returns every clip's result (failed ones have
-    no output)."""
+    no output). A folder holding files of those names that motionkit did not write is refused."""
+    _check_names(clips)
+    names = [f"{c.name}.mcap" for c in clips] + [SUMMARY]
     print(f"retargeting {len(clips)} clip(s) into {out} with {min(jobs, len(clips))} job(s)")
-    results = retarget_all(clips, out, config, jobs, robot, report=_report_clip)
+    with claimed_out(out, names, RetargetError):
+        results = retarget_all(clips, out, config, jobs, robot, report=_report_clip)
+        done = [r for r in results if r.output is not None]
+        if done:
+            summary = {"config": config.to_dict(), "clips": [_result_json(r) for r in results]}
+            write_text_atomic(out / SUMMARY, json.dumps(summary, indent=2))
     _print_table(results)
-    done = [r for r in results if r.output is not None]
-    if done:
-        summary = {"config": config.to_dict(), "clips": [_result_json(r) for r in results]}
-        write_text_atomic(out / "retarget_summary.json", json.dumps(summary, indent=2))
     failed = len(results) - len(done)
     if failed:
         print(f"{failed} of {len(results)} clip(s) failed; nothing written for them")
@@ -272,7 +278,7 @@ def _result_json(result: ClipResult) -> dict[str, Any]:
     return {
         "name": result.name,
         "source": result.source,
-        "output": str(result.output) if result.output else None,
+        "output": result.output.name if result.output else None,  # beside the summary
         "frames": result.frames,
         "seconds": result.seconds,
         "stages_s": result.stages,

@@ -9,6 +9,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from motionkit.errors import RetargetError
+from motionkit.outputs import check_out
 from motionkit.recipes import argument
 from motionkit.retarget.batch import resolve_inputs, run_retarget
 from motionkit.retarget.config import RetargetConfig
@@ -98,6 +99,7 @@ def _retarget(args: argparse.Namespace) -> int:
     if args.jobs < 0:
         raise RetargetError(f"--jobs must be 0 (one per CPU) or more, got {args.jobs}")
     jobs = args.jobs or os.cpu_count() or 1
+    check_out(args.out, [], RetargetError)  # before any download
     base = args.config.parent if args.config else Path.cwd()
     recipe = [str(base / c) if (base / c).exists() else c for c in config.clips]
     clips = resolve_inputs([*recipe, *args.inputs])

@@ -14,7 +14,7 @@ import numpy as np
 
 from motionkit import __version__
 from motionkit.errors import RobotModelError
-from motionkit.outputs import write_text_atomic
+from motionkit.outputs import inside, write_text_atomic
 from motionkit.robot.spec import THRUST_AXIS, RobotSpec
 from motionkit.robot.urdf import RobotModel, load_urdf
 
@@ -181,7 +181,7 @@ def cache_dir() -> Path:
 
 def cached_file(robot: Robot, filename: str, text: str) -> Path:
     """`text` as a file in the robot's cache folder (keyed by model hash), written if changed."""
-    folder = cache_dir() / "robots" / f"{robot.name}-{robot.model_hash}"
+    folder = inside(cache_dir() / "robots", f"{robot.name}-{robot.model_hash}", RobotModelError)
     path = folder / filename
     if not path.exists() or path.read_text() != text:
         write_text_atomic(path, text)

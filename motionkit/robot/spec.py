@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import fnmatch
 import math
+import re
 import tomllib
 from dataclasses import dataclass
 from importlib import resources
@@ -21,6 +22,9 @@ from motionkit.tomlfile import load, read_toml
 
 # Thrust acts along this axis of every jet frame (the frame origin is at the nozzle).
 THRUST_AXIS = (0.0, 0.0, -1.0)
+# The name becomes file and folder names (exports, the robot cache): a plain one only.
+PLAIN_NAME = re.compile(r"[A-Za-z0-9_-][A-Za-z0-9_.-]{0,63}")
+PLAIN_NAME_RULE = "1-64 letters, digits, '_', '-' or '.' (not first)"
 
 
 @dataclass(frozen=True)
@@ -117,6 +121,8 @@ class RobotSpec:
             raise refusal(RobotModelError, "forward", expected, self.forward)
         if not all(math.isfinite(angle) for _, angle in self.posture):
             raise refusal(RobotModelError, "posture", "finite angles [rad]", dict(self.posture))
+        if not PLAIN_NAME.fullmatch(self.name):
+            raise refusal(RobotModelError, "name", PLAIN_NAME_RULE, self.name)
         check(self, RobotModelError, "non-empty", "joints", "feet", "jets")
         check(self, RobotModelError, "distinct", "joints")
 

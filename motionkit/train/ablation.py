@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from motionkit.errors import TrainError
-from motionkit.outputs import atomic_output, write_text_atomic
+from motionkit.outputs import atomic_output, claim_out, write_text_atomic
 from motionkit.robot import Robot
 from motionkit.train.config import TrainConfig
 
@@ -41,9 +41,11 @@ def run_ablation(
     if missing:
         raise TrainError(f"the ablation needs [priors.walk] and [priors.flight]; missing {missing}")
     out = Path(out)
+    folders = {setting: setting.replace("+", "_") for setting in SETTINGS}
+    claim_out(out, [*folders.values(), "ablation.json", "ablation.png"], TrainError)
     figures: dict[str, dict[str, float]] = {}
     for setting, priors in SETTINGS.items():
-        folder = out / setting.replace("+", "_")
+        folder = out / folders[setting]
         summary_path = folder / "summary.json"
         if summary_path.exists():
             progress(f"{setting}: kept the finished run in {folder}")

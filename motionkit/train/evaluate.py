@@ -12,7 +12,7 @@ import numpy as np
 
 from motionkit.dataset import Metadata, Source, Trajectory, write
 from motionkit.robot import Robot
-from motionkit.train.spatial import quat_to_matrix
+from motionkit.robot.geometry import angular_velocity
 from motionkit.train.train import Learner, Trainer
 
 FIELDS = (
@@ -28,7 +28,7 @@ FIELDS = (
     "thrust",
     "task_reward",
 )
-FIRST_ONLY = ("qpos", "qvel", "target")  # kept for environment 0 alone: its clip is saved
+FIRST_ONLY = ("qpos", "target")  # kept for environment 0 alone: its clip is saved
 
 
 def evaluate(
@@ -90,15 +90,16 @@ def first_episode(
     arrays: dict[str, np.ndarray], robot: Robot, control_hz: float, config: dict[str, Any]
 ) -> Trajectory | None:
     """The first episode of environment 0 as a clip (None if it lasted less than 2 steps);
-    the waypoints it pursued go into the metadata config as [time, x, y, z] rows."""
+    the waypoints it pursued go into the metadata config as [time, x, y, z] rows. Its
+    velocities are those its positions imply (central differences at the control rate): the
+    simulator's, sampled once per control step, move within the step and disagree with them."""
     done = arrays["done"][:, 0]
     end = int(np.argmax(done)) if done.any() else len(done)
     if end < 2:
         return None
-    qpos, qvel = arrays["qpos"][:end, 0], arrays["qvel"][:end, 0]
+    qpos = arrays["qpos"][:end, 0].astype(float)
     time = np.arange(1, end + 1) / control_hz
-    rotation = np.asarray(jax.vmap(quat_to_matrix)(jnp.asarray(qpos[:, 3:7])))
-    angular = np.einsum("tij,tj->ti", rotation, qvel[:, 3:6])
+    orientation = qpos[:, 3:7] / np.linalg.norm(qpos[:, 3:7], axis=1, keepdims=True)
     targets = arrays["target"][:end, 0]
     change = np.concatenate([[True], np.any(np.diff(targets, axis=0) != 0, axis=1)])
     route = [
@@ -109,12 +110,12 @@ def first_episode(
     return Trajectory(
         time=time,
         base_position=qpos[:, :3],
-        base_orientation=qpos[:, 3:7] / np.linalg.norm(qpos[:, 3:7], axis=1, keepdims=True),
+        base_orientation=orientation,
         joint_names=robot.joint_names,
         joint_positions=qpos[:, 7:],
-        joint_velocities=qvel[:, 6:],
-        base_linear_velocity=qvel[:, :3],
-        base_angular_velocity=angular,
+        joint_velocities=np.gradient(qpos[:, 7:], time, axis=0),
+        base_linear_velocity=np.gradient(qpos[:, :3], time, axis=0),
+        base_angular_velocity=angular_velocity(time, orientation),
         thrust=arrays["thrust"][:end, 0],
         contacts=arrays["feet_down"][:end, 0],
         jet_names=tuple(jet.name for jet in spec.jets),

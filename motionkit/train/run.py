@@ -17,7 +17,7 @@ from typing import Any
 import jax
 
 from motionkit.errors import TrainError
-from motionkit.outputs import write_json_atomic, write_text_atomic
+from motionkit.outputs import check_out, claim_out, write_json_atomic, write_text_atomic
 from motionkit.robot import Robot
 from motionkit.train.amp import PriorData
 from motionkit.train.checkpoint import NAME, load_checkpoint, save_checkpoint
@@ -27,6 +27,11 @@ from motionkit.train.evaluate import evaluate, save_rollout
 from motionkit.train.metrics_log import MetricsLog
 from motionkit.train.priors import load_priors
 from motionkit.train.train import Learner, Trainer
+
+# what a run writes in its folder (see the module doc)
+OUTPUTS = (
+    "config.toml", "train.csv", "eval.csv", "tensorboard", NAME, "rollouts", "summary.json"
+)  # fmt: skip
 
 
 def make_env(config: TrainConfig, robot: Robot, prior: PriorData | None = None) -> Env:
@@ -66,17 +71,19 @@ def train(
         raise TrainError(f"{out}: nothing to resume (no {NAME})")
     if not resume and checkpoint.exists():
         raise TrainError(f"{out} holds a run already: pass --resume or another --out")
+    check_out(out, OUTPUTS, TrainError)
     prior, prior_summary = load_priors(config.priors, robot, config.env.control_hz)
     env = make_env(config, robot, prior)
-    out.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(out / "config.toml", config.to_toml())
     trainer = Trainer(config, env)
     run = config.run
     learner, carry = trainer.init(run.seed)
-    if resume:
+    if resume:  # checked before anything is written
         learner = load_checkpoint(checkpoint, learner)
         key = jax.random.fold_in(jax.random.key(run.seed), int(learner.iteration))
         carry = trainer.new_carry(*jax.random.split(key))
+    claim_out(out, OUTPUTS, TrainError)
+    write_text_atomic(out / "config.toml", config.to_toml())
+    if resume:
         progress(f"resumed {out} at iteration {int(learner.iteration)}")
     log = MetricsLog(out, run.tensorboard)
     if log.note:

@@ -18,6 +18,7 @@ from motionkit.recipes import argument
 from motionkit.robot import load_robot
 from motionkit.trajopt.config import SCENARIOS, TrajoptConfig
 from motionkit.trajopt.runner import (
+    check_clips,
     clip_stem,
     library_summary,
     solve_clip,
@@ -104,6 +105,7 @@ def _run(args: argparse.Namespace) -> int | None:
     robot = load_robot(args.urdf, args.spec)
     if args.grid is None:
         name = args.name or clip_stem(config)
+        check_clips(args.out, [name])  # an --out it cannot write is exit 2, before the solve
         try:
             metrics = solve_clip(config, args.out, name, robot, not args.no_replay)
         except TrajoptError as exc:

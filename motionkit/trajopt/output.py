@@ -130,16 +130,16 @@ def write_outputs(
     folder: Path, name: str, solution: Solution, robot: Robot, metrics: dict[str, Any]
 ) -> Path:
     """`name`.mcap (the clip), `name`.knots.npz (every knot block [SI], dt, time) and
-    `name`.config.json (the resolved config and the figures); each written atomically."""
+    `name`.config.json (the resolved config and the figures); each written atomically, the clip
+    last."""
     folder = Path(folder)
     trajectory = to_trajectory(solution, robot, metrics)
     metrics = metrics | physics_figures(solution, robot, trajectory)
     trajectory = replace(trajectory, metadata=replace(trajectory.metadata, metrics=metrics))
-    clip = write(folder / f"{name}.mcap", trajectory, robot)
     buffer = io.BytesIO()
     np.savez_compressed(buffer, time=solution.time, dt=solution.dt, **solution.knots)
     with atomic_output(folder / f"{name}.knots.npz") as stream:
         stream.write(buffer.getvalue())
     resolved = {"config": solution.config.to_dict(), "metrics": metrics}
     write_text_atomic(folder / f"{name}.config.json", json.dumps(resolved, indent=2) + "\n")
-    return clip
+    return write(folder / f"{name}.mcap", trajectory, robot)  # last: a clip has its companions

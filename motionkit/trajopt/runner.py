@@ -5,23 +5,35 @@ Importable without the [trajopt] extra; a run without it is a TrajoptError namin
 from __future__ import annotations
 
 import contextlib
-import multiprocessing
 import os
 from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from motionkit.errors import MotionkitError, TrajoptError
 from motionkit.extras import require
+from motionkit.outputs import check_out, claim_out, claimed_out
 from motionkit.robot import Robot
 from motionkit.trajopt.config import TrajoptConfig
+from motionkit.workers import worker_pool
 
 Task = tuple[dict[str, Any], str, str, bool, Robot]  # config, out folder, clip name, replay, robot
 Outcome = tuple[str, bool, str, dict[str, float]]  # name, solved, summary or error, figures
 FIGURES = ("solve_s", "duration_s", "airborne_s")  # what a batch reports of each clip
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+SUFFIXES = (".mcap", ".knots.npz", ".config.json")  # the files of one solve
+
+
+def clip_files(names: Iterable[str]) -> list[str]:
+    """The files the solves `names` write."""
+    return [f"{name}{suffix}" for name in names for suffix in SUFFIXES]
+
+
+def check_clips(out: Path, names: Iterable[str]) -> None:
+    """Refuse up front an --out that cannot take these solves (a file, read only, or holding
+    files of their names that motionkit did not write), or a name that leads outside it."""
+    check_out(Path(out), clip_files(names), TrajoptError)
 
 
 def clip_stem(config: TrajoptConfig) -> str:
@@ -41,6 +53,7 @@ def solve_clip(
     """Solve, check and write one scenario for `robot` as OUT/NAME.mcap (+ .knots.npz,
     .config.json); returns its metrics. TrajoptError (nothing written) when it fails."""
     require("trajopt", "trajopt", TrajoptError)
+    check_clips(out, [name])
     from motionkit.trajopt.checks import check_solution, motion_figures, solver_figures
     from motionkit.trajopt.output import write_outputs
     from motionkit.trajopt.solve import solve
@@ -59,7 +72,8 @@ def solve_clip(
             f"{name}: the solution fails its checks: "
             + ", ".join(f"{k} = {v}" for k, v in metrics.items() if not isinstance(v, list))
         )
-    write_outputs(Path(out), name, solution, robot, metrics)
+    folder = claim_out(Path(out), clip_files([name]), TrajoptError)
+    write_outputs(folder, name, solution, robot, metrics)
     return metrics
 
 
@@ -119,15 +133,19 @@ def solve_batch(tasks: list[Task], configs: list[TrajoptConfig], jobs: int) -> l
     several workers, the compiled derivatives of each distinct jet model in `configs` are built
     here first, once, so that the workers find them cached."""
     require("trajopt", "trajopt", TrajoptError)
+    if not tasks:
+        return []
+    out = Path(tasks[0][1])
+    check_clips(out, [task[2] for task in tasks])  # before any work
     if len(tasks) > 1 and jobs > 1:
         robot = tasks[0][4]
         for config in {c.jets: c for c in configs}.values():
             _compile_once(config, robot)
     outcomes = []
-    spawn = multiprocessing.get_context("spawn")  # no fork of a process that may hold threads
     with (
+        claimed_out(out, clip_files(task[2] for task in tasks), TrajoptError),
         _single_threaded_workers(),
-        ProcessPoolExecutor(max_workers=max(1, jobs), mp_context=spawn) as pool,
+        worker_pool(jobs, out) as pool,
     ):
         for outcome in pool.map(_batch_task, tasks):
             name, ok, text, _ = outcome

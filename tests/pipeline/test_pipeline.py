@@ -37,9 +37,15 @@ def test_run_cached_reruns_only_for_a_new_key(tmp_path: Path) -> None:
     assert len(calls) == 3
 
 
-def test_failed_stage_leaves_nothing(tmp_path: Path) -> None:
+def test_failed_stage_keeps_the_previous_output(tmp_path: Path) -> None:
     out, records = tmp_path / "stage", tmp_path / "records"
-    run_cached("s", "k1", out, records, lambda folder: "ok")
+
+    def good(folder: Path) -> str:
+        (folder / "good.txt").write_text("1")
+        return "ok"
+
+    run_cached("s", "k1", out, records, good)
+    record = (records / "s.json").read_text()
 
     def fail(folder: Path) -> str:
         (folder / "half.txt").write_text("partial")
@@ -47,7 +53,10 @@ def test_failed_stage_leaves_nothing(tmp_path: Path) -> None:
 
     with pytest.raises(PipelineError, match="boom"):
         run_cached("s", "k2", out, records, fail)
-    assert not out.exists() and not (records / "s.json").exists()
+    assert sorted(p.name for p in out.iterdir()) == [".motionkit-files.json", "good.txt"]
+    assert (records / "s.json").read_text() == record
+    assert list((tmp_path / ".staging").iterdir()) == []
+    assert run_cached("s", "k1", out, records, fail).status == "cached"
 
 
 def test_digest_depends_on_every_part() -> None:
@@ -187,7 +196,8 @@ def test_pipeline_end_to_end_then_cached(tmp_path: Path, capsys) -> None:
     assert main([*argv, "--until", "retarget"]) == 2
     err = capsys.readouterr().err
     assert "broken.bvh" in err
-    assert not (out / "walk").exists() and not (out / ".pipeline" / "retarget.json").exists()
+    assert [p.name for p in (out / "walk").glob("*.mcap")] == ["walk.mcap"]  # the previous run's
+    assert (out / ".pipeline" / "retarget.json").exists()
 
 
 def test_every_stage_of_a_run_gets_its_robot(

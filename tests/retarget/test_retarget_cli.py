@@ -33,7 +33,9 @@ def test_retarget_bvh_and_amc_in_parallel(tmp_path: Path, capsys) -> None:
     take["bvh"].unlink()  # 07_03.amc (+ 07.asf) and walk.bvh: both formats, one folder
     out = tmp_path / "out"
     assert main(["retarget", str(tmp_path / "in"), "--out", str(out), "--jobs", "2"]) == 0
-    assert files_under(out) == ["07_03.mcap", "retarget_summary.json", "walk.mcap"]
+    assert files_under(out) == [
+        ".motionkit-files.json", "07_03.mcap", "retarget_summary.json", "walk.mcap"
+    ]  # fmt: skip
     summary = json.loads((out / "retarget_summary.json").read_text())
     assert [c["name"] for c in summary["clips"]] == ["07_03", "walk"]
     clip = read(out / "walk.mcap")
@@ -111,7 +113,7 @@ def test_one_bad_clip_among_good_ones(tmp_path: Path, capsys) -> None:
     bad.write_text(mini_bvh(arms_down(12)).replace("MOTION", "MOTON"))
     out = tmp_path / "out"
     assert main(["retarget", str(good), str(bad), "--out", str(out)]) == 1
-    assert files_under(out) == ["good.mcap", "retarget_summary.json"]
+    assert files_under(out) == [".motionkit-files.json", "good.mcap", "retarget_summary.json"]
     assert "1 of 2 clip(s) failed" in capsys.readouterr().out
 
 

@@ -1,0 +1,54 @@
+"""Worker processes that end with the block that uses them: spawned (a fork of a process that runs
+JAX or BLAS threads can deadlock), deaf to the terminal's Ctrl-C (their parent decides), and
+terminated when the block ends with an exception (an interrupt or SIGTERM included), the
+temporary files they were writing removed."""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import signal
+from collections.abc import Iterator
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+from motionkit.outputs import remove_temporaries
+
+GRACE_S = 2.0  # a terminated worker that has not ended by then is killed
+
+
+@contextlib.contextmanager
+def worker_pool(jobs: int, out: Path) -> Iterator[ProcessPoolExecutor]:
+    """A pool of `jobs` spawned processes writing into `out`; stopped at once on an exception."""
+    spawn = multiprocessing.get_context("spawn")
+    pool = ProcessPoolExecutor(max(1, jobs), mp_context=spawn, initializer=_ignore_sigint)
+    try:
+        yield pool
+    except BaseException:
+        stop_workers(pool, out)
+        raise
+    pool.shutdown()
+
+
+def stop_workers(pool: ProcessPoolExecutor, out: Path) -> None:
+    """Cancel what has not started, end the workers now, and remove their temporaries; a second
+    Ctrl-C or SIGTERM meanwhile waits until this is done."""
+    signals = {signal.SIGINT, signal.SIGTERM}
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, signals)
+    try:
+        processes = list((pool._processes or {}).values())  # no public handle before 3.14
+        pool.shutdown(wait=False, cancel_futures=True)
+        for process in processes:
+            process.terminate()
+        for process in processes:
+            process.join(GRACE_S)
+            if process.is_alive():
+                process.kill()
+                process.join()
+        remove_temporaries(out, (p.pid for p in processes if p.pid is not None))
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
+
+
+def _ignore_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
