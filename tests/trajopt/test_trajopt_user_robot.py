@@ -8,13 +8,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from motionkit import recipes
 from motionkit.cli import main
 from motionkit.dataset import read
 from motionkit.robot import load_robot
 from motionkit.trajopt.kinematics import GRAVITY
 
 pytest.importorskip("casadi")
-RECIPES = Path(__file__).resolve().parents[2] / "trajopt"
+RECIPES = recipes.ROOT / "trajopt"
 
 
 def takeoff(robot: tuple[Path, Path], out: Path) -> int:
