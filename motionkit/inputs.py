@@ -49,11 +49,13 @@ def read_bytes(path: Path | str, error: type[MotionkitError], what: str) -> byte
             raise error(f"{path}: cannot read {what} ({exc.strerror})") from None
 
 
-def read_text(path: Path | str, error: type[MotionkitError], what: str) -> str:
-    """A non-empty UTF-8 text file (a leading byte-order mark is dropped); an empty file, NUL
-    bytes (binary data) or bytes that are not UTF-8 are refused, naming the line."""
+def read_text(
+    path: Path | str, error: type[MotionkitError], what: str, empty: bool = False
+) -> str:
+    """A UTF-8 text file (a leading byte-order mark is dropped); an empty file (unless `empty`),
+    NUL bytes (binary data) or bytes that are not UTF-8 are refused, naming the line."""
     data = read_bytes(path, error, what)
-    if not data.strip():
+    if not empty and not data.strip():
         raise error(f"{path}: cannot read {what}: the file is empty")
     nul = data.find(b"\0")
     if nul >= 0:

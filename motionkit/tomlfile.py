@@ -16,7 +16,7 @@ T = TypeVar("T")
 
 def read_toml(path: Path, what: str, error: type[MotionkitError]) -> dict[str, Any]:
     """The parsed file, or `error` naming the file and what is wrong with it."""
-    text = read_text(path, error, what)  # regular files only, strict UTF-8
+    text = read_text(path, error, what, empty=True)  # regular files, UTF-8; empty: no keys
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
