@@ -60,9 +60,7 @@ def apply_scenario(problem: Problem) -> tuple[np.ndarray, float]:
         )
     stand = standing(problem)
     forward = np.array(robot.spec.forward)
-    # the standing jets' thrust, down to 0.01 N (16.00 N; 0.03 N/s^2 off equilibrium): the exact
-    # 16.0023 N made the 14-knot take-off to 0.9 m run out of IPOPT iterations
-    idle = float(np.floor(100 * steady_thrust(P250_COEFFS, 0.0)) / 100)
+    idle = float(steady_thrust(P250_COEFFS, 0.0))
     last = n - 1
 
     if scenario.start == "stand":
