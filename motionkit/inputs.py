@@ -49,9 +49,7 @@ def read_bytes(path: Path | str, error: type[MotionkitError], what: str) -> byte
             raise error(f"{path}: cannot read {what} ({exc.strerror})") from None
 
 
-def read_text(
-    path: Path | str, error: type[MotionkitError], what: str, empty: bool = False
-) -> str:
+def read_text(path: Path | str, error: type[MotionkitError], what: str, empty: bool = False) -> str:
     """A UTF-8 text file (a leading byte-order mark is dropped); an empty file (unless `empty`),
     NUL bytes (binary data) or bytes that are not UTF-8 are refused, naming the line."""
     data = read_bytes(path, error, what)

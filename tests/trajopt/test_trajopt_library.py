@@ -158,7 +158,7 @@ def test_library_runs_and_reports_failures_per_clip(
     path = write(
         tmp_path,
         GOOD
-        + "scenario = { knots = 14 }\ngrid = [[0.0], [0.0], [0.9, 1.0]]\n"
+        + "scenario = { knots = 14 }\ngrid = [[0.0], [0.0], [0.8, 1.0]]\n"
         + '[[entries]]\nname = "moon"\nrecipe = "takeoff"\nscenario = { knots = 10 }\n'
         + "solver = { max_iter = 60 }\ntargets = [[0.0, 0.0, 40.0]]\n",
     )
@@ -169,11 +169,11 @@ def test_library_runs_and_reports_failures_per_clip(
     assert "moon_+0p00_+0p00_+40p00: FAILED:" in printed and "IPOPT status" in printed
     assert "2 of 3 clips solved" in printed and "failed: moon_+0p00_+0p00_+40p00" in printed
     assert sorted(p.name for p in out.glob("*.mcap")) == [
-        "up_+0p00_+0p00_+0p90.mcap",
+        "up_+0p00_+0p00_+0p80.mcap",
         "up_+0p00_+0p00_+1p00.mcap",
     ]
     airborne = 0.0
-    for name in ("up_+0p00_+0p00_+0p90", "up_+0p00_+0p00_+1p00"):
+    for name in ("up_+0p00_+0p00_+0p80", "up_+0p00_+0p00_+1p00"):
         knots = np.load(out / f"{name}.knots.npz")
         flying = knots["corners"][:, 2::3].min(axis=1) > 0.05
         seconds = float(knots["dt"]) * np.sum(flying[:-1] & flying[1:])

@@ -127,11 +127,11 @@ def test_centroid_inertia_is_mujocos() -> None:
 @pytest.mark.parametrize(
     ("table", "message"),
     [
-        ("position_kp = -1.0", "'replay.position_kp' should be a gain >= 0 (0: off), got -1.0"),
-        ("orientation_kd = -40.0", "'replay.orientation_kd' should be a gain >= 0"),
-        ("orientation_kp = inf", "'replay.orientation_kp' should be a finite number, got inf"),
-        ("max_base_error = 0.0", "'replay.max_base_error' should be > 0 m"),
-        ("yaw_weight = 0.0", "'replay.yaw_weight' should be > 0, got 0.0"),
+        ("position_kp = -1.0", "[replay]: 'position_kp' should be finite and >= 0, got -1.0"),
+        ("orientation_kd = -40.0", "[replay]: 'orientation_kd' should be finite and >= 0"),
+        ("orientation_kp = inf", "[replay]: 'orientation_kp' should be finite and >= 0, got inf"),
+        ("max_base_error = 0.0", "[replay]: 'max_base_error' should be finite and > 0"),
+        ("yaw_weight = 0.0", "[replay]: 'yaw_weight' should be finite and > 0, got 0.0"),
         ("kp = 1.0", "[replay]: unknown keys ['kp']"),
         ("position_kd = 'high'", "[replay]: 'position_kd' should be float"),
     ],

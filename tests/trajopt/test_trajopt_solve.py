@@ -171,14 +171,14 @@ def test_grid_solves_each_target_in_worker_processes(tmp_path: Path) -> None:
     out = tmp_path / "library"
     code = cli(
         "--scenario", "takeoff", "--config", str(recipe), "--out", str(out),
-        "--grid", "0", "0", "0.9,1.0", "--jobs", "2", "--quiet", "--no-replay",
+        "--grid", "0", "0", "0.8,1.0", "--jobs", "2", "--quiet", "--no-replay",
     )  # fmt: skip
     assert code == 0
     clips = sorted(out.glob("*.mcap"))
     assert [clip.name for clip in clips] == [
-        "takeoff_+0p00_+0p00_+0p90.mcap",
+        "takeoff_+0p00_+0p00_+0p80.mcap",
         "takeoff_+0p00_+0p00_+1p00.mcap",
     ]
-    for clip, height in zip(clips, (0.9, 1.0), strict=True):
+    for clip, height in zip(clips, (0.8, 1.0), strict=True):
         knots = np.load(clip.with_suffix("").with_suffix(".knots.npz"))
         assert knots["com"][-1] == pytest.approx([0.0, 0.0, height], abs=0.01)
