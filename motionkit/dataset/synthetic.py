@@ -25,14 +25,18 @@ def synthetic_trajectory(
     thrust: float = 0.0,
     seed: int = 0,
     kind: str = "walk",
+    base_height: float | None = None,
 ) -> Trajectory:
-    """`seconds` of motion at `rate` Hz; `thrust` [N] per jet, with a 10 % 0.5 Hz ripple."""
+    """`seconds` of motion at `rate` Hz; `thrust` [N] per jet, with a 10 % 0.5 Hz ripple; the
+    base bobs about `base_height` [m] (default: the robot's standing height)."""
     rng = np.random.default_rng(seed)
     time = np.arange(round(seconds * rate)) / rate
     yaw = turn_rate * time
     radius = speed / turn_rate
     bob = 2 * np.pi * 1.0
-    height = standing_height(robot, robot.spec.posture_angles())
+    height = (
+        standing_height(robot, robot.spec.posture_angles()) if base_height is None else base_height
+    )
     base_position = np.stack(
         [radius * np.sin(yaw), radius * (1 - np.cos(yaw)), height + 0.02 * np.sin(bob * time)],
         axis=1,

@@ -74,7 +74,7 @@ def test_run_folder_contents(run_folder: Path, robot) -> None:
     evaluation = read_csv(run_folder / "eval.csv")
     assert evaluation["iteration"].tolist() == [ITERATIONS]
     share = evaluation["eval_airborne_share"] + evaluation["eval_ground_share"]
-    np.testing.assert_allclose(share, 1.0)
+    np.testing.assert_allclose(share, 1.0, rtol=1e-5)  # float32 shares
     assert (run_folder / "checkpoint.msgpack").stat().st_size > 1000
     config = TrainConfig.from_toml(run_folder / "config.toml")
     assert config.run.iterations == ITERATIONS and sorted(config.priors) == ["flight", "walk"]
