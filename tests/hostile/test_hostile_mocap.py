@@ -35,7 +35,11 @@ def out(tmp_path_factory: pytest.TempPathFactory) -> Path:
     (source / "07_03.bvh").write_text(GOOD_BVH)
     folder = source / "out"
     assert main(["retarget", str(source / "07_03.bvh"), "--out", str(folder), "--no-balance"]) == 0
-    assert sorted(snapshot(folder)) == ["07_03.mcap", "retarget_summary.json"]
+    assert sorted(snapshot(folder)) == [
+        ".motionkit-files.json",
+        "07_03.mcap",
+        "retarget_summary.json",
+    ]
     return folder
 
 

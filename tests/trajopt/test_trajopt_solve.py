@@ -152,7 +152,7 @@ def test_infeasible_request_reports_and_writes_nothing(
     recipe = tmp_path / "high.toml"
     recipe.write_text(
         (RECIPES / "takeoff.toml").read_text().replace("knots = 20", "knots = 10")
-        + "max_iter = 60\n"
+        + "\n[solver]\nmax_iter = 60\n"
     )
     out = tmp_path / "out"
     code = cli(
