@@ -1,5 +1,12 @@
 """Fitting the LSTM thrust model: optax Adam on free-run windows (truncated BPTT), validation
-free-runs on the held-back end of every log, early stopping on the validation RMSE."""
+free-runs on held-back blocks of every log, early stopping on the validation RMSE.
+
+One log of an engine covers its operating range sparsely, so two things carry the fit to
+states it has not seen: validation blocks spread over every log (the training windows come from
+all of its parts), and a physical prior under the LSTM (model.py), started from least squares
+on the training part and trained with it. Each prior of `ModelConfig.priors` is trained in
+turn (a share of the time each); the one best on validation is kept.
+"""
 
 from __future__ import annotations
 
@@ -14,12 +21,14 @@ import numpy as np
 import optax
 
 from motionkit.errors import JetIdentError
+from motionkit.jet_ident.baselines import fit_grey_box, smoothed
 from motionkit.jet_ident.benchlog import BenchLog
 from motionkit.jet_ident.config import ModelConfig, TrainConfig
-from motionkit.jet_ident.model import Normalisation, init_variables, rollout
+from motionkit.jet_ident.model import Normalisation, first_order_terms, init_variables, rollout
 from motionkit.jet_ident.step import LSTMThrust, free_run_jit
 
 Segment = tuple[np.ndarray, np.ndarray]  # (thrust [N], throttle [%]) of consecutive samples
+PRIOR_SMOOTHING_S = 0.5  # the derivative filter of the priors' least squares
 
 
 @dataclass
@@ -29,6 +38,10 @@ class TrainResult:
     stopped: str  # why training ended: "early stop", "max steps" or "time limit"
     seconds: float
     history: list[dict[str, float]] = field(default_factory=list)
+    prior: str = "none"  # the prior of the best model
+    mae: float = float("nan")  # its validation free-run MAE and RMSE [N]
+    rmse: float = float("nan")
+    scores: dict[str, tuple[float, float]] = field(default_factory=dict)  # per prior tried
 
 
 def common_dt(logs: Sequence[BenchLog]) -> float:
@@ -45,14 +58,50 @@ def common_dt(logs: Sequence[BenchLog]) -> float:
     return dts[0]
 
 
-def split(logs: Sequence[BenchLog], fraction: float) -> tuple[list[Segment], list[Segment]]:
-    """Training and validation segments: the last `fraction` of every log validates."""
+def split_logs(
+    logs: Sequence[BenchLog], fraction: float, blocks: int
+) -> tuple[list[BenchLog], list[BenchLog]]:
+    """Training and validation parts: every log cut into `blocks` equal sections, the last
+    `fraction` of each validating (blocks = 1: the end of every log)."""
     train, valid = [], []
     for log in logs:
-        cut = round(log.samples * (1 - fraction))
-        train.append((log.thrust[:cut], log.throttle[:cut]))
-        valid.append((log.thrust[cut:], log.throttle[cut:]))
+        edges = np.linspace(0, log.samples, blocks + 1).round().astype(int)
+        for b in range(blocks):
+            cut = edges[b + 1] - round((edges[b + 1] - edges[b]) * fraction)
+            where = f" {b + 1}/{blocks}" if blocks > 1 else ""
+            for part, s, out in (
+                ("train", slice(edges[b], cut), train),
+                ("validation", slice(cut, edges[b + 1]), valid),
+            ):
+                name = f"{log.name}[{part}{where}]"
+                out.append(
+                    BenchLog(log.time[s], log.throttle[s], log.thrust[s], name, log.metadata)
+                )
     return train, valid
+
+
+def split(
+    logs: Sequence[BenchLog], fraction: float, blocks: int = 1
+) -> tuple[list[Segment], list[Segment]]:
+    """`split_logs` as (thrust, throttle) segments."""
+    train, valid = split_logs(logs, fraction, blocks)
+    return [(p.thrust, p.throttle) for p in train], [(p.thrust, p.throttle) for p in valid]
+
+
+def prior_coeffs(kind: str, train: Sequence[BenchLog], norm: Normalisation) -> np.ndarray | None:
+    """Least-squares start of a prior (model.py) on the training parts."""
+    if kind == "none":
+        return None
+    if kind == "second_order":
+        return np.array(fit_grey_box(train, PRIOR_SMOOTHING_S).coeffs)
+    rows, targets = [], []
+    for log in train:
+        thrust, rate, _ = smoothed(log.thrust, log.dt, PRIOR_SMOOTHING_S)
+        x = np.asarray(norm.inputs(thrust, log.throttle))
+        rows.append(np.stack(first_order_terms(x), axis=1))
+        targets.append(rate / norm.rate_scale)
+    coeffs, *_ = np.linalg.lstsq(np.concatenate(rows), np.concatenate(targets), rcond=None)
+    return coeffs
 
 
 def train_lstm(
@@ -61,21 +110,53 @@ def train_lstm(
     config: TrainConfig,
     progress: Callable[[str], None] | None = None,
 ) -> TrainResult:
-    """Fit the LSTM to `logs`; `progress` receives one line per validation."""
+    """Fit the LSTM to `logs` on each prior of `model.priors` in turn and keep the best on
+    validation; `progress` receives one line per validation."""
     start = time.perf_counter()
     dt = common_dt(logs)
-    train, valid = split(logs, config.validation_fraction)
+    train, valid = split_logs(logs, config.validation_fraction, config.validation_blocks)
     length = config.warmup + config.window
-    for log, (thrust, _), (v_thrust, _) in zip(logs, train, valid, strict=True):
-        if len(thrust) < length or len(v_thrust) < 2 * config.warmup:
-            raise JetIdentError(
-                f"{log.name}: {log.samples} samples are too few for windows of {length} and a "
-                f"validation part of at least {2 * config.warmup}"
-            )
+    short = [p for p in train if p.samples < length]
+    short += [p for p in valid if p.samples < 2 * config.warmup]
+    if short:
+        raise JetIdentError(
+            f"{short[0].name}: {short[0].samples} samples are too few for windows of {length} "
+            f"and validation parts of at least {2 * config.warmup}"
+        )
     norm = Normalisation.fit(
-        np.concatenate([t for t, _ in train]), np.concatenate([u for _, u in train])
+        np.concatenate([p.thrust for p in train]), np.concatenate([p.throttle for p in train])
     )
-    hidden, warmup = model.hidden, config.warmup
+    segments = [(p.thrust, p.throttle) for p in train]
+    checks = [(p.thrust, p.throttle) for p in valid]
+    minutes = config.max_minutes / len(model.priors)
+    runs = []
+    for kind in model.priors:
+        coeffs = prior_coeffs(kind, train, norm)
+        run = _train(segments, checks, norm, dt, coeffs, model.hidden, config, minutes, progress)
+        run.prior = kind
+        runs.append(run)
+        if progress:
+            progress(f"{kind} prior: validation RMSE {run.rmse:.3f} N at step {run.best_step}")
+    best = min(runs, key=lambda r: r.rmse)
+    best.scores = {r.prior: (r.mae, r.rmse) for r in runs}
+    best.seconds = time.perf_counter() - start
+    return best
+
+
+def _train(
+    train: Sequence[Segment],
+    valid: Sequence[Segment],
+    norm: Normalisation,
+    dt: float,
+    prior: np.ndarray | None,
+    hidden: int,
+    config: TrainConfig,
+    minutes: float,
+    progress: Callable[[str], None] | None,
+) -> TrainResult:
+    start = time.perf_counter()
+    warmup = config.warmup
+    length = warmup + config.window
     schedule = optax.cosine_decay_schedule(config.learning_rate, config.max_steps, alpha=0.05)
     optimizer = optax.chain(optax.clip_by_global_norm(config.clip_norm), optax.adam(schedule))
 
@@ -90,22 +171,22 @@ def train_lstm(
         return optax.apply_updates(variables, updates), opt_state, loss
 
     rng = np.random.default_rng(config.seed)
-    starts = np.array([len(t) - length + 1 for t, _ in train], dtype=float)
-    variables = init_variables(hidden, config.seed)
+    starts = np.concatenate(  # (segment, offset) of every window
+        [[(i, o) for o in range(len(t) - length + 1)] for i, (t, _) in enumerate(train)]
+    )
+    variables = init_variables(hidden, config.seed, prior)
     opt_state = optimizer.init(variables)
-    best = (np.inf, variables, 0)
-    history: list[dict[str, float]] = []
+    mae, rmse = validate(LSTMThrust.from_variables(variables, norm, dt), valid, warmup)
+    best = (rmse, variables, 0, mae)
+    history: list[dict[str, float]] = [
+        {"step": 0, "loss": float("nan"), "val_mae": mae, "val_rmse": rmse, "seconds": 0.0}
+    ]
     losses: list[float] = []
     stopped, waited = "max steps", 0
     for step in range(1, config.max_steps + 1):
-        which = rng.choice(len(train), size=config.batch, p=starts / starts.sum())
-        offsets = (rng.random(config.batch) * starts[which]).astype(int)
-        thrust = np.stack(
-            [train[w][0][o : o + length] for w, o in zip(which, offsets, strict=True)]
-        )
-        throttle = np.stack(
-            [train[w][1][o : o + length] for w, o in zip(which, offsets, strict=True)]
-        )
+        picks = starts[rng.integers(0, len(starts), config.batch)]
+        thrust = np.stack([train[w][0][o : o + length] for w, o in picks])
+        throttle = np.stack([train[w][1][o : o + length] for w, o in picks])
         variables, opt_state, loss = update(variables, opt_state, thrust, throttle)
         losses.append(float(loss))
         if step % config.eval_every and step != config.max_steps:
@@ -123,7 +204,7 @@ def train_lstm(
         )
         losses = []
         if rmse < best[0]:
-            best, waited = (rmse, variables, step), 0
+            best, waited = (rmse, variables, step, mae), 0
         else:
             waited += 1
         if progress:
@@ -135,11 +216,12 @@ def train_lstm(
         if waited >= config.patience:
             stopped = "early stop"
             break
-        if elapsed > 60 * config.max_minutes:
+        if elapsed > 60 * minutes:
             stopped = "time limit"
             break
     params = LSTMThrust.from_variables(best[1], norm, dt)
-    return TrainResult(params, best[2], stopped, time.perf_counter() - start, history)
+    seconds = time.perf_counter() - start
+    return TrainResult(params, best[2], stopped, seconds, history, mae=best[3], rmse=best[0])
 
 
 def validate(params: LSTMThrust, segments: Sequence[Segment], warmup: int) -> tuple[float, float]:

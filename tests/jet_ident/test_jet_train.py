@@ -1,4 +1,5 @@
-"""A tiny training run lowers the free-run error; input checks."""
+"""Training: a tiny run lowers the free-run error, validation keeps the better prior, a short
+log of an engine of the other structure is fitted well; the split; input checks."""
 
 from dataclasses import replace
 
@@ -11,7 +12,7 @@ from motionkit.jet_ident.config import BenchConfig, ModelConfig, TrainConfig
 from motionkit.jet_ident.model import init_variables
 from motionkit.jet_ident.step import LSTMThrust
 from motionkit.jet_ident.synthetic import synthetic_run
-from motionkit.jet_ident.train import split, train_lstm, validate
+from motionkit.jet_ident.train import split, split_logs, train_lstm, validate
 
 TINY = TrainConfig(
     warmup=10, window=60, batch=8, learning_rate=1e-2, max_steps=150, eval_every=50, patience=5
@@ -22,17 +23,41 @@ def test_tiny_training_reduces_the_free_run_error() -> None:
     bench = BenchConfig(duration_s=90.0)
     logs = [synthetic_run(bench, seed).log for seed in (1, 2)]
     lines: list[str] = []
-    result = train_lstm(logs, ModelConfig(hidden=8), TINY, lines.append)
-    _, valid = split(logs, TINY.validation_fraction)
+    result = train_lstm(logs, ModelConfig(hidden=8, priors=("none",)), TINY, lines.append)
+    _, valid = split(logs, TINY.validation_fraction, TINY.validation_blocks)
     # The starting point: the initial weights with the normalisation training used.
     untrained = LSTMThrust.from_variables(init_variables(8, TINY.seed), result.params.norm, 0.01)
     before = validate(untrained, valid, TINY.warmup)
     after = validate(result.params, valid, TINY.warmup)
     assert after[1] < 0.6 * before[1], (before, after)
     assert after[1] == pytest.approx(min(h["val_rmse"] for h in result.history), rel=1e-4)
-    assert len(lines) == len(result.history) == 3 and "validation MAE" in lines[0]
-    assert result.history[-1]["loss"] < result.history[0]["loss"]
-    assert result.stopped in ("max steps", "early stop")
+    assert (result.mae, result.rmse) == pytest.approx(after, rel=1e-4)
+    assert [h["step"] for h in result.history] == [0, 50, 100, 150]
+    assert len(lines) == 4 and "validation MAE" in lines[0] and "none prior" in lines[-1]
+    assert result.history[-1]["loss"] < result.history[1]["loss"]
+    assert result.stopped in ("max steps", "early stop") and result.prior == "none"
+    assert result.params.prior is None
+
+
+def test_validation_picks_the_prior() -> None:
+    logs = [synthetic_run(BenchConfig(duration_s=90.0), 1).log]
+    config = replace(TINY, max_steps=50)
+    result = train_lstm(logs, ModelConfig(hidden=8), config)
+    assert set(result.scores) == {"second_order", "first_order"}
+    assert result.rmse == min(rmse for _, rmse in result.scores.values())
+    assert result.scores[result.prior] == (result.mae, result.rmse)
+    assert result.params.prior.shape == ((13,) if result.prior == "second_order" else (6,))
+
+
+def test_blocks_spread_validation_over_the_log() -> None:
+    t = np.arange(1000) * 0.01
+    log = BenchLog(t, np.full_like(t, 50), t.copy(), "x")
+    train, valid = split_logs([log], 0.2, 4)
+    assert [(p.time[0], p.samples) for p in valid] == [(2, 50), (4.5, 50), (7, 50), (9.5, 50)]
+    assert [(p.time[0], p.samples) for p in train] == [(0, 200), (2.5, 200), (5, 200), (7.5, 200)]
+    assert train[1].name == "x[train 2/4]" and valid[3].name == "x[validation 4/4]"
+    (head,), (tail,) = split([log], 0.2)  # one block: the end validates
+    assert len(head[0]) == 800 and tail[0][0] == 8.0
 
 
 def test_logs_must_share_the_rate_and_be_long_enough() -> None:
