@@ -112,9 +112,11 @@ class ModelConfig:
 
     hidden: int = 32  # LSTM features
     priors: tuple[str, ...] = ("second_order", "first_order")
+    max_delay_s: float = 0.12  # the longest dead time tried (0: none)
 
     def __post_init__(self) -> None:
         check(self, JetIdentError, ">= 1", "hidden")
+        check(self, JetIdentError, ">= 0", "max_delay_s")
         check(self, JetIdentError, "non-empty", "priors")
         check(self, JetIdentError, "distinct", "priors")
         for prior in self.priors:

@@ -4,8 +4,9 @@ Arrays: w_input (2, 4H), w_hidden (H, 4H), bias (4H), w_out (H), b_out () as ste
 holds them (float32), optionally prior (6 or 13: the LSTM's physical prior, model.py), and
 `metadata`: UTF-8 JSON bytes with
 
-    format, version       "motionkit.jet_ident.lstm", 1 (no prior) or 2
+    format, version       "motionkit.jet_ident.lstm", 1 (no prior, no dead time) or 2
     dt                    sample interval [s] the model steps by
+    delay                 the model's dead time [samples] (version 2)
     normalisation         thrust_mean, thrust_std [N], throttle_mean, throttle_std [%],
                           rate_scale [N/s]
     hidden                LSTM features
@@ -47,8 +48,9 @@ def save_model(path: Path, params: LSTMThrust, metadata: dict[str, Any] | None =
     header = {
         **(metadata or {}),
         "format": FORMAT,
-        "version": 1 if params.prior is None else 2,
+        "version": 1 if params.prior is None and not params.delay else 2,
         "dt": float(params.dt),
+        "delay": params.delay,
         "hidden": params.hidden,
         "normalisation": norm,
     }
@@ -79,6 +81,7 @@ def load_model(path: Path) -> tuple[LSTMThrust, dict[str, Any]]:
             **{name: float(metadata["normalisation"][name]) for name in NORMALISATION}
         )
         dt = float(metadata["dt"])
+        delay = int(metadata.get("delay", 0))
     except (ValueError, KeyError, TypeError) as exc:
         raise JetIdentError(f"{path}: metadata is unreadable or incomplete ({exc})") from exc
     if metadata.get("format") != FORMAT or metadata.get("version") not in VERSIONS:
@@ -98,8 +101,10 @@ def load_model(path: Path) -> tuple[LSTMThrust, dict[str, Any]]:
         raise JetIdentError(
             f"{path}: prior has shape {prior.shape}, expected ({FIRST_ORDER},) or ({SECOND_ORDER},)"
         )
+    if delay < 0:
+        raise JetIdentError(f"{path}: delay {delay}: expected 0 or more samples")
     prior = None if prior is None else jnp.asarray(prior)
-    return LSTMThrust(**w, norm=norm, dt=dt, prior=prior), metadata
+    return LSTMThrust(**w, norm=norm, dt=dt, prior=prior, delay=delay), metadata
 
 
 def load_jet(path: Path, jet: str = "lstm") -> LSTMThrust | GreyBoxThrust:

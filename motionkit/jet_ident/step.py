@@ -3,8 +3,10 @@
 Three models share the interface (pick one by the type of `params`; the choice is made at
 trace time, so all jit and vmap):
 
-- `LSTMThrust`: the fitted LSTM (u = throttle [%]); state = the LSTM's (c, h), and the
-  prior's thrust rate p [N/s] where the LSTM rides on a prior (model.py).
+- `LSTMThrust`: the fitted LSTM (u = throttle [%]); state = the LSTM's (c, h), the prior's
+  thrust rate p [N/s] where the LSTM rides on a second-order prior (model.py), and the last
+  `delay` throttles where the model sees the throttle that many steps late (the engine's dead
+  time: ECU, fuel system and load cell).
 - `GreyBoxThrust`: the grey box fitted beside it (the published second-order structure,
   p250.py), `substeps` RK4 steps per step with the throttle held (u = throttle [%]);
   state = (Tdot,), the thrust rate [N/s].
@@ -39,6 +41,7 @@ class LSTMThrust:
     norm: Normalisation
     dt: float  # s
     prior: jax.Array | None = None  # (6,) or (13,): the prior's coefficients (model.py)
+    delay: int = struct.field(pytree_node=False, default=0)  # steps the throttle is late
 
     @property
     def hidden(self) -> int:
@@ -47,11 +50,12 @@ class LSTMThrust:
     def zero_state(self) -> tuple[jax.Array, ...]:
         zero = jnp.zeros(self.hidden)
         second = self.prior is not None and self.prior.shape[-1] == SECOND_ORDER
-        return (zero, zero, jnp.zeros(())) if second else (zero, zero)
+        state = (zero, zero, jnp.zeros(())) if second else (zero, zero)
+        return (*state, jnp.zeros(self.delay)) if self.delay else state
 
     @classmethod
     def from_variables(
-        cls, variables: dict[str, Any], norm: Normalisation, dt: float
+        cls, variables: dict[str, Any], norm: Normalisation, dt: float, delay: int = 0
     ) -> LSTMThrust:
         """Fuse the flax variables of model.ThrustLSTM into four arrays (and the prior's)."""
         cell, head = variables["params"]["cell"], variables["params"]["head"]
@@ -59,7 +63,7 @@ class LSTMThrust:
         w_hidden = jnp.concatenate([cell[f"h{g}"]["kernel"] for g in GATES], axis=1)
         bias = jnp.concatenate([cell[f"h{g}"]["bias"] for g in GATES])
         out = head["kernel"][:, 0], head["bias"][0]
-        return cls(w_input, w_hidden, bias, *out, norm, dt, variables.get("prior"))
+        return cls(w_input, w_hidden, bias, *out, norm, dt, variables.get("prior"), delay)
 
 
 @struct.dataclass
@@ -92,6 +96,10 @@ def thrust_next(params: Params, state: Any, thrust: jax.Array, u: jax.Array):
         for _ in range(params.substeps):
             x = rk4(slope, x, params.dt / params.substeps)
         return (x[1],), x[0]
+    if params.delay:  # the throttle `delay` steps ago drives the model; u joins the queue
+        *state, queue = state
+        late = jnp.asarray(u, queue.dtype)[..., None]
+        u, queue = queue[..., 0], jnp.concatenate([queue[..., 1:], late], axis=-1)
     c, h = state[:2]
     x = params.norm.inputs(thrust, u)
     z = x @ params.w_input + h @ params.w_hidden + params.bias
@@ -100,8 +108,9 @@ def thrust_next(params: Params, state: Any, thrust: jax.Array, u: jax.Array):
     h = jax.nn.sigmoid(o) * jnp.tanh(c)
     rate = (h @ params.w_out + params.b_out) * params.norm.rate_scale
     scale, dt = params.norm.rate_scale, params.dt
-    prior, prior_rate = with_prior(params.prior, state[2:], x, scale, dt, thrust, u)
-    return (c, h, *prior), thrust + (rate + prior_rate) * dt
+    prior, prior_rate = with_prior(params.prior, tuple(state[2:]), x, scale, dt, thrust, u)
+    new = (c, h, *prior, queue) if params.delay else (c, h, *prior)
+    return new, thrust + (rate + prior_rate) * dt
 
 
 def zero_state(params: Params) -> tuple[jax.Array, ...]:

@@ -1,18 +1,20 @@
 """Fitting the LSTM thrust model: optax Adam on free-run windows (truncated BPTT), validation
 free-runs on held-back blocks of every log, early stopping on the validation RMSE.
 
-One log of an engine covers its operating range sparsely, so two things carry the fit to
+One log of an engine covers its operating range sparsely, so three things carry the fit to
 states it has not seen: validation blocks spread over every log (the training windows come from
-all of its parts), and a physical prior under the LSTM (model.py), started from least squares
-on the training part and trained with it. Each prior of `ModelConfig.priors` is trained in
-turn (a share of the time each); the one best on validation is kept.
+all of its parts); a physical prior under the LSTM (model.py), started from least squares on
+the training part and trained with it; and a dead time, the throttle fed `delay` samples late
+(of 0 to `max_delay_s`, the one whose least-squares prior free-runs best on validation). Each
+prior of `ModelConfig.priors` is trained in turn (a share of the time left each); the one best
+on validation is kept.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import jax
@@ -39,6 +41,7 @@ class TrainResult:
     seconds: float
     history: list[dict[str, float]] = field(default_factory=list)
     prior: str = "none"  # the prior of the best model
+    delay: int = 0  # its dead time [samples]
     mae: float = float("nan")  # its validation free-run MAE and RMSE [N]
     rmse: float = float("nan")
     scores: dict[str, tuple[float, float]] = field(default_factory=dict)  # per prior tried
@@ -104,6 +107,40 @@ def prior_coeffs(kind: str, train: Sequence[BenchLog], norm: Normalisation) -> n
     return coeffs
 
 
+def late(throttle: np.ndarray, delay: int) -> np.ndarray:
+    """The throttle `delay` samples late (its first value held before the log)."""
+    return np.concatenate([np.full(delay, throttle[0]), throttle[: len(throttle) - delay]])
+
+
+def silent(coeffs: np.ndarray, norm: Normalisation, dt: float) -> LSTMThrust:
+    """The prior alone: an LSTM whose output is zero."""
+    zero = jnp.zeros
+    return LSTMThrust(zero((2, 4)), zero((1, 4)), zero(4), zero(1), zero(()), norm, dt, coeffs)
+
+
+def prior_start(
+    kind: str,
+    train: Sequence[BenchLog],
+    valid: Sequence[BenchLog],
+    norm: Normalisation,
+    warmup: int,
+    max_delay: int,
+) -> tuple[np.ndarray | None, int]:
+    """The prior's least-squares coefficients and dead time [samples]: of 0..max_delay, the one
+    whose prior free-runs best on the validation parts."""
+    if kind == "none":
+        return None, 0
+    best: tuple[float, np.ndarray | None, int] = (np.inf, None, 0)
+    for delay in range(max_delay + 1):
+        shifted = [replace(p, throttle=late(p.throttle, delay)) for p in train]
+        coeffs = prior_coeffs(kind, shifted, norm)
+        checks = [(p.thrust, late(p.throttle, delay)) for p in valid]
+        _, rmse = validate(silent(coeffs, norm, train[0].dt), checks, warmup)
+        if rmse < best[0]:  # NaN (a diverging start) never wins
+            best = (rmse, coeffs, delay)
+    return best[1], best[2]
+
+
 def train_lstm(
     logs: Sequence[BenchLog],
     model: ModelConfig,
@@ -126,17 +163,24 @@ def train_lstm(
     norm = Normalisation.fit(
         np.concatenate([p.thrust for p in train]), np.concatenate([p.throttle for p in train])
     )
-    segments = [(p.thrust, p.throttle) for p in train]
     checks = [(p.thrust, p.throttle) for p in valid]
-    minutes = config.max_minutes / len(model.priors)
+    max_delay = round(model.max_delay_s / dt)
     runs = []
-    for kind in model.priors:
-        coeffs = prior_coeffs(kind, train, norm)
-        run = _train(segments, checks, norm, dt, coeffs, model.hidden, config, minutes, progress)
-        run.prior = kind
+    for i, kind in enumerate(model.priors):
+        coeffs, delay = prior_start(kind, train, valid, norm, config.warmup, max_delay)
+        segments = [(p.thrust, late(p.throttle, delay)) for p in train]
+        left = config.max_minutes - (time.perf_counter() - start) / 60
+        minutes = left / (len(model.priors) - i)
+        run = _train(
+            segments, checks, norm, dt, (coeffs, delay), model.hidden, config, minutes, progress
+        )
+        run.prior, run.delay = kind, delay
         runs.append(run)
         if progress:
-            progress(f"{kind} prior: validation RMSE {run.rmse:.3f} N at step {run.best_step}")
+            progress(
+                f"{kind} prior, dead time {delay} samples: validation RMSE {run.rmse:.3f} N "
+                f"at step {run.best_step}"
+            )
     best = min(runs, key=lambda r: r.rmse)
     best.scores = {r.prior: (r.mae, r.rmse) for r in runs}
     best.seconds = time.perf_counter() - start
@@ -148,13 +192,14 @@ def _train(
     valid: Sequence[Segment],
     norm: Normalisation,
     dt: float,
-    prior: np.ndarray | None,
+    start_prior: tuple[np.ndarray | None, int],
     hidden: int,
     config: TrainConfig,
     minutes: float,
     progress: Callable[[str], None] | None,
 ) -> TrainResult:
     start = time.perf_counter()
+    prior, delay = start_prior
     warmup = config.warmup
     length = warmup + config.window
     schedule = optax.cosine_decay_schedule(config.learning_rate, config.max_steps, alpha=0.05)
@@ -176,7 +221,7 @@ def _train(
     )
     variables = init_variables(hidden, config.seed, prior)
     opt_state = optimizer.init(variables)
-    mae, rmse = validate(LSTMThrust.from_variables(variables, norm, dt), valid, warmup)
+    mae, rmse = validate(LSTMThrust.from_variables(variables, norm, dt, delay), valid, warmup)
     best = (rmse, variables, 0, mae)
     history: list[dict[str, float]] = [
         {"step": 0, "loss": float("nan"), "val_mae": mae, "val_rmse": rmse, "seconds": 0.0}
@@ -191,7 +236,7 @@ def _train(
         losses.append(float(loss))
         if step % config.eval_every and step != config.max_steps:
             continue
-        mae, rmse = validate(LSTMThrust.from_variables(variables, norm, dt), valid, warmup)
+        mae, rmse = validate(LSTMThrust.from_variables(variables, norm, dt, delay), valid, warmup)
         elapsed = time.perf_counter() - start
         history.append(
             {
@@ -219,7 +264,7 @@ def _train(
         if elapsed > 60 * minutes:
             stopped = "time limit"
             break
-    params = LSTMThrust.from_variables(best[1], norm, dt)
+    params = LSTMThrust.from_variables(best[1], norm, dt, delay)
     seconds = time.perf_counter() - start
     return TrainResult(params, best[2], stopped, seconds, history, mae=best[3], rmse=best[0])
 

@@ -44,6 +44,10 @@ class Jets:
                 raise ValueError(f"jet = '{config.jet}' needs the fitted model (jet_model)")
             self.steps = max(1, round(config.control_dt / model.dt))
             self.params: Any = model.replace(dt=config.control_dt / self.steps)
+            if isinstance(model, LSTMThrust):  # the same dead time at the new step
+                self.params = self.params.replace(
+                    delay=round(model.delay * model.dt / self.params.dt)
+                )
             steady = np.maximum.accumulate(self._steady_thrust(THROTTLES))
             self.idle = float(max(steady[0], 0.0))
             self.rest_action = -1.0  # 0 % throttle

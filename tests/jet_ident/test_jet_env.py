@@ -35,12 +35,15 @@ def test_grey_box_jets_idle_and_step() -> None:
 
 def test_lstm_on_a_second_order_prior_rests_and_steps() -> None:
     variables = init_variables(8, 0, P250_COEFFS)
-    params = LSTMThrust.from_variables(variables, Normalisation(100, 60, 50, 30, 60), 0.01)
+    norm = Normalisation(100, 60, 50, 30, 60)
+    params = LSTMThrust.from_variables(variables, norm, 0.01, delay=6)
     config = EnvConfig(control_hz=60.0, jet="lstm", jet_model="unused.npz")
     jets = Jets(config, np.full(4, 250.0), params)
+    assert jets.params.delay == 7  # 60 ms at 1/120 s
     state = jets.state_at(jnp.array([30.0, 80.0, 150.0, 210.0]))
-    assert [s.shape for s in state] == [(4, 8), (4, 8), (4,)]
+    assert [s.shape for s in state] == [(4, 8), (4, 8), (4,), (4, 7)]
     # near zero, the LSTM silent: the model is about the published one
     assert jets.idle == pytest.approx(float(steady_thrust(P250_COEFFS, 0.0)), abs=5.0)
     new_state, thrust = jets.step(state, jnp.array([30.0, 80.0, 150.0, 210.0]), jnp.zeros(4))
-    assert [s.shape for s in new_state] == [(4, 8), (4, 8), (4,)] and thrust.shape == (4,)
+    assert [s.shape for s in new_state] == [(4, 8), (4, 8), (4,), (4, 7)]
+    assert thrust.shape == (4,)

@@ -51,9 +51,9 @@ def test_prior_and_grey_box_round_trip(tmp_path: Path) -> None:
     grey = GreyBox(tuple(float(c) for c in P250_COEFFS * 1.01))
     lag = FirstOrderLag(0.7, (12.0, 1.5, 0.004))
     meta = {"baselines": baselines_metadata(grey, lag), "selected": "grey_box"}
-    save_model(tmp_path / "m.npz", params, meta)
+    save_model(tmp_path / "m.npz", params.replace(delay=4), meta)
     back, metadata = load_model(tmp_path / "m.npz")
-    assert metadata["version"] == 2
+    assert metadata["version"] == 2 and back.delay == 4
     np.testing.assert_allclose(np.asarray(back.prior), P250_COEFFS, rtol=1e-6)
     assert isinstance(load_jet(tmp_path / "m.npz"), LSTMThrust)
     jet = load_jet(tmp_path / "m.npz", "selected")

@@ -145,3 +145,21 @@ def test_grey_box_step_is_the_baseline_model() -> None:
     for i, thrust in enumerate([20.0, 100.0, 200.0]):
         _, one = thrust_next(params, (jnp.zeros(()),), jnp.float32(thrust), jnp.float32(50.0))
         assert float(out[i]) == pytest.approx(float(one), rel=1e-6)
+
+
+def test_dead_time_feeds_the_throttle_late(variables: dict) -> None:
+    # with a dead time of 3 steps the model on u equals the model without on u 3 steps late
+    params = LSTMThrust.from_variables({**variables, "prior": jnp.asarray(P250_COEFFS)}, NORM, 0.01)
+    late = params.replace(delay=3)
+    assert [s.shape for s in late.zero_state()] == [(HIDDEN,), (HIDDEN,), (), (3,)]
+    rng = np.random.default_rng(4)
+    thrust = jnp.asarray(100 + 20 * rng.standard_normal(60), jnp.float32)
+    throttle = rng.uniform(0, 100, 60)
+    shifted = jnp.asarray(np.concatenate([np.zeros(3), throttle[:-3]]), jnp.float32)
+    expected = free_run(params, thrust, shifted, 10)
+    got = free_run(late, thrust, jnp.asarray(throttle, jnp.float32), 10)
+    np.testing.assert_allclose(np.asarray(got), np.asarray(expected), rtol=1e-6, atol=1e-4)
+    # the queue: the oldest throttle drives the step, the newest joins the end
+    state = (*late.zero_state()[:3], jnp.array([10.0, 20.0, 30.0]))
+    state, _ = thrust_next(late, state, jnp.float32(100.0), jnp.float32(40.0))
+    np.testing.assert_array_equal(np.asarray(state[3]), [20.0, 30.0, 40.0])
