@@ -9,8 +9,9 @@ v = (u - 47.333) / 31.483:
 
 With the public coefficients the engine idles at 16.0 N (u = 0) and gives 222.1 N at full
 throttle (public figures: 10-16 N idle, 222-237 N full); the 63 % rise time from idle to full
-is 1.39 s. The functions take any coefficient vector (the grey-box baseline fits one) and use
-plain arithmetic only, so that they work on floats, numpy and JAX arrays and CasADi symbols
+is 1.39 s. The functions take any coefficient vector (the grey-box baseline fits one) and, as
+`scales`, any normalisation (another engine of this structure; the published one by default),
+and use plain arithmetic only, so that they work on floats, numpy and JAX arrays and CasADi symbols
 (trajopt's dynamics). At rest (Tdot = 0) the model is quadratic in t and in v, so its steady
 states are closed-form roots; `motionkit.jet_ident.integrate` integrates it in JAX.
 """
