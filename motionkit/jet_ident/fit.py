@@ -132,7 +132,10 @@ def fit_logs(paths: list[Path], out: Path, config: JetIdentConfig) -> dict[str, 
     save_model(out / "model.npz", result.training.params, metadata)
     write_text_atomic(out / "config.toml", config.to_toml())
     write_text_atomic(out / "report.json", json.dumps(report, indent=2) + "\n")
-    title = f"validation (free run, last {config.train.validation_fraction:.0%} of each log)"
+    title = (
+        f"validation (free run, {config.train.validation_fraction:.0%} of each log in "
+        f"{config.train.validation_blocks} blocks)"
+    )
     write_text_atomic(out / "report.txt", f"{title}\n{table}\n")
     rows = ["step,loss,val_mae,val_rmse,seconds"]
     rows += [

@@ -74,7 +74,7 @@ def with_prior(
     thrust: jax.Array,
     throttle: jax.Array,
 ) -> tuple[tuple[jax.Array, ...], jax.Array]:
-    """The prior's part: (its next state, () or (p,), and its thrust rate [N/s]) at `state`."""
+    """The prior's next state (() or (p,)) and its thrust rate [N/s] at `state`."""
     if prior is None:
         return (), jnp.zeros_like(thrust)
     if prior.shape[-1] == FIRST_ORDER:

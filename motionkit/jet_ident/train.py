@@ -136,7 +136,7 @@ def prior_start(
         coeffs = prior_coeffs(kind, shifted, norm)
         checks = [(p.thrust, late(p.throttle, delay)) for p in valid]
         _, rmse = validate(silent(coeffs, norm, train[0].dt), checks, warmup)
-        if rmse < best[0]:  # NaN (a diverging start) never wins
+        if best[1] is None or rmse < best[0]:
             best = (rmse, coeffs, delay)
     return best[1], best[2]
 
@@ -270,10 +270,12 @@ def _train(
 
 
 def validate(params: LSTMThrust, segments: Sequence[Segment], warmup: int) -> tuple[float, float]:
-    """Free-run MAE and RMSE [N] over the segments (their first `warmup` samples excluded)."""
+    """Free-run MAE and RMSE [N] over the segments (their first `warmup` samples excluded);
+    infinite for a model that diverges."""
     errors = [
         np.asarray(free_run_jit(params, jnp.asarray(t), jnp.asarray(u), warmup)) - t[warmup:]
         for t, u in segments
     ]
     error = np.concatenate(errors)
-    return float(np.mean(np.abs(error))), float(np.sqrt(np.mean(error**2)))
+    scores = np.mean(np.abs(error)), np.sqrt(np.mean(error**2))
+    return tuple(float(np.nan_to_num(x, nan=np.inf)) for x in scores)  # type: ignore[return-value]
