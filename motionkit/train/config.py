@@ -16,7 +16,7 @@ from motionkit.errors import TrainError
 from motionkit.tomlfile import load, read_toml, to_toml
 
 SCENARIOS = ("flat", "terrain")
-JETS = ("ideal", "lstm")
+JETS = ("ideal", "lstm", "grey_box", "selected")  # the last three: models of jet_model
 ACTION_MAPPINGS = ("range", "stand")
 LR_SCHEDULES = ("constant", "adaptive")
 
@@ -34,8 +34,10 @@ class EnvConfig:
     action_mapping: str = "range"
     action_scale: float = 0.7
     reset_from_prior: float = 0.85  # chance that a reset starts in a prior frame (else standing)
-    jet: str = "ideal"  # "ideal": action = thrust rate; "lstm": action = throttle (jet_model)
-    jet_model: str = ""  # model.npz written by `motionkit jet-ident fit` (jet = "lstm")
+    # "ideal": action = thrust rate; "lstm", "grey_box" or "selected" (the one of the two that
+    # won jet-ident's validation): action = throttle, the model from jet_model
+    jet: str = "ideal"
+    jet_model: str = ""  # model.npz written by `motionkit jet-ident fit` (jet other than ideal)
     thrust_rate_max: float = 300.0  # N/s, ideal jet
     initial_thrust: tuple[float, float] = (0.0, 0.0)  # N per jet at a standing reset (ideal jet)
     min_base_height: float = 0.4  # m above the terrain; lower ends the episode (a fall)
@@ -67,8 +69,10 @@ class EnvConfig:
         check(self, TrainError, SCENARIOS, "scenario")
         check(self, TrainError, JETS, "jet")
         check(self, TrainError, ACTION_MAPPINGS, "action_mapping")
-        if self.jet == "lstm" and not self.jet_model:
-            raise TrainError("jet = 'lstm' needs 'jet_model', the model.npz of jet-ident fit")
+        if self.jet != "ideal" and not self.jet_model:
+            raise TrainError(
+                f"jet = '{self.jet}' needs 'jet_model', the model.npz of jet-ident fit"
+            )
         check(self, TrainError, "> 0", "control_hz", "episode_seconds", "action_scale")
         check(self, TrainError, "> 0", "thrust_rate_max", "waypoint_radius", "ground_height")
         check(self, TrainError, "> 0", "terrain_size")
@@ -78,7 +82,7 @@ class EnvConfig:
         check(self, TrainError, "in [0, 1]", "air_probability", "reset_from_prior")
         check(self, TrainError, ">= 0", "waypoint_distance", "air_height", "initial_thrust")
         check(self, TrainError, "[low, high]", "waypoint_distance", "air_height", "initial_thrust")
-        if self.jet == "lstm" and self.initial_thrust != (0.0, 0.0):
+        if self.jet != "ideal" and self.initial_thrust != (0.0, 0.0):
             raise TrainError("'initial_thrust' needs jet = 'ideal' (the LSTM starts at idle)")
         if self.waypoint_timeout and self.timeout_factor + self.timeout_extra <= 0:
             raise TrainError("a waypoint timeout needs timeout_factor or timeout_extra > 0")

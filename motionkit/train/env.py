@@ -37,7 +37,7 @@ import numpy as np
 from flax import struct
 
 from motionkit.dataset.amp import FeatureLayout
-from motionkit.jet_ident.step import LSTMThrust
+from motionkit.jet_ident.step import GreyBoxThrust, LSTMThrust
 from motionkit.robot import Robot
 from motionkit.train import terrain as terrain_lib
 from motionkit.train import waypoints
@@ -121,7 +121,7 @@ class Env:
         robot: Robot,
         config: EnvConfig,
         reward: RewardConfig | None = None,
-        jet_model: LSTMThrust | None = None,
+        jet_model: LSTMThrust | GreyBoxThrust | None = None,
         prior: PriorData | None = None,
     ) -> None:
         self.robot, self.config = robot, config

@@ -37,12 +37,12 @@ OUTPUTS = (
 def make_env(config: TrainConfig, robot: Robot, prior: PriorData | None = None) -> Env:
     """The environment of a config (with its LSTM jets loaded) and the priors it resets from."""
     jet_model = None
-    if config.env.jet == "lstm":
+    if config.env.jet != "ideal":
         from motionkit.errors import JetIdentError
-        from motionkit.jet_ident.export import load_model
+        from motionkit.jet_ident.export import load_jet
 
         try:
-            jet_model, _ = load_model(Path(config.env.jet_model))
+            jet_model = load_jet(Path(config.env.jet_model), config.env.jet)
         except JetIdentError as exc:
             raise TrainError(f"[env] jet_model: {exc}") from exc
     try:
