@@ -126,10 +126,15 @@ def retarget_clip(
             licence=CMU_LICENCE if cmu else "",
             acknowledgement=CMU_ACKNOWLEDGEMENT if cmu else "",
         )
+        span = config.trim.get(clip.name)
         frames = motion.frames
+        if span is not None:  # the frames core.trimmed keeps
+            frames = round(span[1] * motion.rate) - round(span[0] * motion.rate) + 1
         total = frames * (config.balance.passes + 1)  # the balance filter solves again
         step = None if progress is None else (lambda t: progress(t + 1, total))
-        trajectory, timings = retarget(motion.landmarks(), motion.rate, robot, config, source, step)
+        trajectory, timings = retarget(
+            motion.landmarks(), motion.rate, robot, config, source, step, span
+        )
         solved = clock.perf_counter()
         path = write(inside(out, f"{clip.name}.mcap", RetargetError), trajectory, robot)
         written = clock.perf_counter()
@@ -221,6 +226,9 @@ def run_retarget(
     quality table and OUT/retarget_summary.json; returns every clip's result (failed ones have
     no output). A folder holding files of those names that motionkit did not write is refused."""
     _check_names(clips)
+    unused = sorted(set(config.trim) - {c.name for c in clips})
+    if unused:
+        print(f"note: trim names no clip among the inputs: {', '.join(unused)}")
     names = [f"{c.name}.mcap" for c in clips] + [SUMMARY]
     print(f"retargeting {len(clips)} clip(s) into {out} with {min(jobs, len(clips))} job(s)")
     with claimed_out(out, names, RetargetError):
