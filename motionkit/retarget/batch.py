@@ -82,6 +82,8 @@ def resolve_inputs(
             if path.suffix.lower() not in MOCAP_SUFFIXES:
                 raise RetargetError(f"{path}: not a mocap file (expected .bvh or .amc)")
             found.append(_file_input(path))
+        elif path.exists():
+            raise RetargetError(f"{path}: not a regular file or a folder")
         elif re.fullmatch(r"\d{1,3}_\d{1,2}", text.strip()):
             clip_ids.append(text.strip())
         else:
