@@ -104,7 +104,9 @@ class Trainer:
     def __init__(self, config: TrainConfig, env: Env, mesh: Mesh | None = None) -> None:
         """`mesh`: the devices to train on (default: `make_mesh` of `[run] devices`)."""
         self.config, self.env = config, env
-        self.mesh = mesh or make_mesh(config.run.devices, config.ppo.num_envs)
+        if mesh is None:
+            mesh = make_mesh(config.run.devices, config.ppo.num_envs)
+        self.mesh = mesh
         self.devices = self.mesh.size
         self.prior = self.replicate(env.prior)
         prior: PriorData | None = env.prior
@@ -177,9 +179,9 @@ class Trainer:
         """rollout_steps steps of every environment; actions mean + noise * std * N(0, 1)
         (noise 1 to learn, 0 to evaluate). The N(0, 1) draws are made for the whole batch,
         split over the devices like the environments, then each device steps its part."""
-        ppo = self.config.ppo
-        draw = lambda k: jax.random.normal(k, (ppo.num_envs, self.env.action_size))  # noqa: E731
-        normal = jax.vmap(draw)(jax.random.split(key, ppo.rollout_steps))
+        shape = (state.obs.shape[0], self.env.action_size)
+        draw = lambda k: jax.random.normal(k, shape)  # noqa: E731
+        normal = jax.vmap(draw)(jax.random.split(key, self.config.ppo.rollout_steps))
         normal = jax.lax.with_sharding_constraint(normal, batch_sharding(self.mesh, 1))
         steps = jax.shard_map(
             self._steps,
