@@ -152,7 +152,7 @@ def _leaves(arrays: dict[str, np.ndarray], prefix: str) -> list[np.ndarray]:
     return [arrays[f"{prefix}{i}"] for i in range(count)]
 
 
-@pytest.mark.slow  # compiles MJX's rollout twice in the subprocess (about 4 minutes on 2 cores)
+@pytest.mark.slow  # compiles MJX's rollout twice in the subprocess (4-7 minutes on 2 cores)
 def test_two_devices_give_the_first_rollout_of_one(two_devices) -> None:
     arrays, metrics = two_devices
     assert int(arrays["sharded/1"]) == 1 and int(arrays["sharded/2"]) == 2
