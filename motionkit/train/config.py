@@ -19,6 +19,7 @@ SCENARIOS = ("flat", "terrain")
 JETS = ("ideal", "lstm", "grey_box", "selected")  # the last three: models of jet_model
 ACTION_MAPPINGS = ("range", "stand")
 LR_SCHEDULES = ("constant", "adaptive")
+IMPLS = ("jax", "warp")  # MJX on JAX (any device) or on MuJoCo Warp (NVIDIA GPUs)
 
 
 @dataclass(frozen=True)
@@ -54,6 +55,7 @@ class EnvConfig:
     joint_noise: float = 0.05  # rad, uniform noise on the standing posture at reset
     solver_iterations: int = 4  # MJX Newton iterations (cheap and good enough at 240 Hz)
     ls_iterations: int = 6
+    impl: str = "jax"  # the MJX backend: "jax" or "warp" (NVIDIA GPU, `motionkit[warp]`)
     terrain_size: float = 16.0  # m, side of the square terrain ("terrain" scenario)
     terrain_seed: int = 0
 
@@ -69,6 +71,7 @@ class EnvConfig:
         check(self, TrainError, SCENARIOS, "scenario")
         check(self, TrainError, JETS, "jet")
         check(self, TrainError, ACTION_MAPPINGS, "action_mapping")
+        check(self, TrainError, IMPLS, "impl")
         if self.jet != "ideal" and not self.jet_model:
             raise TrainError(
                 f"jet = '{self.jet}' needs 'jet_model', the model.npz of jet-ident fit"
@@ -194,9 +197,15 @@ class RunConfig:
     checkpoint_every: int = 250
     max_minutes: float = 0.0  # stop after this wall time (0: no limit)
     tensorboard: bool = True  # also write TensorBoard events (needs tensorboardX)
+    # local devices the environments are split over (0 or "all": every one); parameters are
+    # replicated, gradients averaged over the global batch (`motionkit.train.devices`)
+    devices: int | str = 1
 
     def __post_init__(self) -> None:
         check(self, TrainError, ">= 1", "iterations", "log_every", "eval_rollouts")
+        count = isinstance(self.devices, int) and not isinstance(self.devices, bool)
+        if self.devices != "all" and not (count and self.devices >= 0):
+            raise refusal(TrainError, "devices", "a count >= 1, 0 or 'all'", self.devices)
         check(self, TrainError, ">= 1", "checkpoint_every")
         check(self, TrainError, ">= 0", "seed", "eval_every", "max_minutes")
 
@@ -221,6 +230,13 @@ class TrainConfig:
     amp: AmpConfig = AmpConfig()
     run: RunConfig = RunConfig()
     priors: dict[str, PriorConfig] = field(default_factory=dict)  # [priors.NAME] tables
+
+    def __post_init__(self) -> None:
+        devices, envs = self.run.devices, self.ppo.num_envs
+        if isinstance(devices, int) and devices > 0 and envs % devices:
+            raise TrainError(
+                f"[ppo] num_envs ({envs}) must be a multiple of [run] devices ({devices})"
+            )
 
     @classmethod
     def from_toml(cls, path: Path) -> TrainConfig:
