@@ -1,7 +1,8 @@
 """The jet-identification config: frozen dataclasses, defaults here, filled from TOML recipes.
 
 A recipe has up to three tables, [bench] (the synthetic bench, with the engine's parameters in
-[bench.p250] or [bench.spool]), [model] and [train]; a key left out keeps its default below.
+[bench.p250], [bench.rate_form] or [bench.spool]), [model] and [train]; a key left out keeps its
+default below.
 """
 
 from __future__ import annotations
@@ -10,12 +11,21 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from motionkit.checks import check, refusal
 from motionkit.errors import JetIdentError
-from motionkit.jet_ident.p250 import P250_COEFFS, SCALES
+from motionkit.jet_ident.p250 import (
+    P220_RATE_FORM,
+    P250_COEFFS,
+    RATE_FORM,
+    SCALES,
+    UNSCALED,
+    rate_form_coeffs,
+)
 from motionkit.tomlfile import load, read_toml, to_toml
 
-PLANTS = ("p250", "spool")
+PLANTS = ("p250", "rate_form", "spool")
 PRIORS = ("second_order", "first_order", "none")
 
 
@@ -34,6 +44,25 @@ class P250Plant:
         if self.scales[1] <= 0 or self.scales[3] <= 0:
             raise refusal(
                 JetIdentError, "scales", "positive thrust and throttle scales", self.scales
+            )
+
+
+@dataclass(frozen=True)
+class RateFormPlant:
+    """An engine of the structure published for the P100/P220 (p250.py, RATE_FORM): K_T, K_TT,
+    K_D, K_DD, K_TD, B_U, B_T, B_D, B_UU, c for thrust in N and throttle in %; by default a
+    P220's."""
+
+    coefficients: tuple[float, ...] = P220_RATE_FORM
+
+    def __post_init__(self) -> None:
+        check(self, JetIdentError, "finite", "coefficients")
+        if len(self.coefficients) != len(RATE_FORM):
+            raise refusal(
+                JetIdentError,
+                "coefficients",
+                f"10 numbers ({', '.join(RATE_FORM)})",
+                self.coefficients,
             )
 
 
@@ -60,8 +89,11 @@ class BenchConfig:
     """The synthetic bench (see synthetic.py for what each imperfection does) and its engine:
     `plant` names the structure, whose table holds the parameters."""
 
-    plant: str = "p250"  # "p250": the published second-order model; "spool": spool.py
+    # "p250": the published second-order P250 model; "rate_form": the structure published for
+    # the P100/P220; "spool": spool.py
+    plant: str = "p250"
     p250: P250Plant = P250Plant()
+    rate_form: RateFormPlant = RateFormPlant()
     spool: SpoolPlant = SpoolPlant()
     duration_s: float = 540.0  # one identification run (the published profile: ~9 minutes)
     rate_hz: float = 100.0  # log rate of the public P250 identification logs
@@ -81,6 +113,12 @@ class BenchConfig:
         103,
         104,
     )  # held-out profiles never used in training
+
+    def second_order(self) -> tuple[np.ndarray, tuple[float, ...]]:
+        """The coefficients and normalisation of a second-order plant in p250.py's structure."""
+        if self.plant == "rate_form":
+            return rate_form_coeffs(self.rate_form.coefficients), UNSCALED
+        return np.array(self.p250.coeffs), self.p250.scales
 
     def ideal(self) -> BenchConfig:
         """The same bench without its imperfections: no noise, sensor lag, delay, throttle

@@ -1,6 +1,7 @@
 """A family of simulated engines for tests and the benchmark: the published P250, an engine
-of the same structure with other coefficients and normalisation, and three of the spool
-structure (spool.py), each on its own bench (noise, sensor low-pass, delay, ambient)."""
+of the same structure with other coefficients and normalisation, a P220 of the structure
+published for the P100/P220, and three of the spool structure (spool.py), each on its own bench
+(noise, sensor low-pass, delay, ambient)."""
 
 from __future__ import annotations
 
@@ -21,6 +22,11 @@ ENGINES: dict[str, BenchConfig] = {
         sensor_cutoff_hz=3.0,
         delay_s=0.05,
         ambient_c=(0.0, 10.0),
+    ),
+    # a P220 of the structure published for the P100/P220 (15-220 N), on a cooler bench with a
+    # later, slower load cell
+    "p220-rate-form": replace(
+        BASE, plant="rate_form", sensor_cutoff_hz=4.0, delay_s=0.04, ambient_c=(5.0, 15.0)
     ),
     # a P250-sized first-order spool engine (11-230 N)
     "spool": replace(BASE, plant="spool", spool=SpoolPlant(accel_limit=(0.5, 0.6))),

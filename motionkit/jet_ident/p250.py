@@ -37,6 +37,26 @@ THROTTLE_OFFSET, THROTTLE_SCALE = 47.333, 31.483  # %
 SCALES = (THRUST_OFFSET, THRUST_SCALE, THROTTLE_OFFSET, THROTTLE_SCALE)
 TD_POWER = (0, 0, 1, 1, 0, 2)  # the power of td in each of the six terms
 
+# The second-order structure published for the P100/P220 (RA-L 2020), in thrust T [N] and
+# throttle u [%], Td = dT/dt:
+#     Tddot = K_T T + K_TT T^2 + K_D Td + K_DD Td^2 + K_TD T Td
+#             + (B_U + B_T T + B_D Td)(u + B_UU u^2) + c
+# is this one without normalisation (UNSCALED) and with g linear in T and Td (rate_form_coeffs).
+UNSCALED = (0.0, 1.0, 0.0, 1.0)
+RATE_FORM = ("K_T", "K_TT", "K_D", "K_DD", "K_TD", "B_U", "B_T", "B_D", "B_UU", "c")
+# A P220 (kerosene) in that structure, as iRonCub-Mk1_1's jets.ini publishes it: it idles at
+# 15.0 N and gives 220.2 N at full throttle.
+P220_RATE_FORM = (
+    *(0.237755, -0.012799, -0.860374, 0.023606, 0.008599),
+    *(1.139026, 0.019914, -0.050257, 0.000302, -0.692913),
+)
+
+
+def rate_form_coeffs(rate_form: Any) -> np.ndarray:
+    """c0..c12 of this structure (with UNSCALED) for the RATE_FORM coefficients."""
+    k_t, k_tt, k_d, k_dd, k_td, b_u, b_t, b_d, b_uu, c = (float(k) for k in rate_form)
+    return np.array([c, k_t, k_d, k_td, k_tt, k_dd, b_u, b_t, b_d, 0.0, 0.0, 0.0, b_uu])
+
 
 def regressors(
     thrust: Any, rate: Any, throttle: Any, scales: tuple[float, ...] = SCALES

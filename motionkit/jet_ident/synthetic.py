@@ -1,8 +1,9 @@
 """A synthetic JetCat P250 test bench: realistic identification logs from an engine model.
 
 No P250 bench log is public, so logs are made from an engine model, by default the published
-second-order P250 model (p250.py; `plant = "p250"` with any coefficients and normalisation, or
-`plant = "spool"`, the shaft-speed model of spool.py), with the imperfections of a real bench,
+second-order P250 model (p250.py; `plant = "p250"` with any coefficients and normalisation,
+`plant = "rate_form"`, the structure published for the P100/P220, or `plant = "spool"`, the
+shaft-speed model of spool.py), with the imperfections of a real bench,
 in this order (all in BenchConfig, all seeded):
 
 1. Identification profile: after 5 s at idle, a random sequence of steps (held 2-8 s), ramps
@@ -33,7 +34,11 @@ from motionkit.jet_ident.integrate import integrate, simulate
 from motionkit.jet_ident.p250 import steady_thrust
 
 LEVELS = (10.0, 30.0, 50.0, 70.0, 90.0)  # % throttle the profile moves around
-SOURCES = {"p250": "published second-order model", "spool": "spool model"}
+SOURCES = {
+    "p250": "published second-order model",
+    "rate_form": "second-order model of the P100/P220 structure",
+    "spool": "spool model",
+}
 
 
 @dataclass(frozen=True)
@@ -86,7 +91,7 @@ def engine_thrust(config: BenchConfig, throttle: np.ndarray, h: float) -> np.nda
         states = integrate(spool.derivative, plant, None, throttle, h, start, 1)
         speed = np.concatenate([[start[0]], states[:-1, 0]])
         return spool.thrust(plant, speed)
-    coeffs, scales = np.array(config.p250.coeffs), config.p250.scales
+    coeffs, scales = config.second_order()
     start = float(steady_thrust(coeffs, throttle[0], scales))
     states = simulate(coeffs, throttle, h, start, 0.0, substeps=1, scales=scales)
     return np.concatenate([[start], states[:-1, 0]])

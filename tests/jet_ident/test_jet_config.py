@@ -46,7 +46,11 @@ def test_to_toml_round_trip(tmp_path: Path) -> None:
         ({"train": {"validation_fraction": 1.0}}, "validation_fraction"),
         ({"bench": {"ambient_c": [30.0, 10.0]}}, "ambient_c"),
         ({"bench": 3}, "should be a table"),
-        ({"bench": {"plant": "p300"}}, "'plant' should be one of 'p250', 'spool'"),
+        ({"bench": {"plant": "p300"}}, "'plant' should be one of 'p250', 'rate_form', 'spool'"),
+        (
+            {"bench": {"rate_form": {"coefficients": [1.0] * 9}}},
+            r"\[bench.rate_form\]: 'coefficients' should be 10 numbers \(K_T, K_TT",
+        ),
         ({"bench": {"p250": {"coeffs": [1.0, 2.0]}}}, r"\[bench.p250\]: 'coeffs' should be 13"),
         ({"bench": {"p250": {"scales": [1, 0, 1, 1]}}}, "positive thrust and throttle scales"),
         ({"bench": {"spool": {"idle_speed": 1.0}}}, "'idle_speed' should be finite and in"),

@@ -5,8 +5,11 @@ import pytest
 
 from motionkit.jet_ident.integrate import simulate
 from motionkit.jet_ident.p250 import (
+    P220_RATE_FORM,
     P250_COEFFS,
     SCALES,
+    UNSCALED,
+    rate_form_coeffs,
     retimed,
     steady_throttle,
     steady_thrust,
@@ -129,3 +132,21 @@ def test_retimed_coefficients_run_the_engine_slower() -> None:
     throttle = np.repeat([20.0, 90.0, 40.0], 200)
     fast = simulate(P250_COEFFS, throttle, 0.01, 50.0)
     np.testing.assert_allclose(simulate(slow, throttle, 0.02, 50.0)[:, 0], fast[:, 0], atol=2e-3)
+
+
+def test_the_p100_p220_structure_maps_onto_this_one() -> None:
+    """The RA-L 2020 form, written out term by term, against p250.py's structure unscaled."""
+    k_t, k_tt, k_d, k_dd, k_td, b_u, b_t, b_d, b_uu, c = P220_RATE_FORM
+    coeffs = rate_form_coeffs(P220_RATE_FORM)
+    rng = np.random.default_rng(0)
+    for thrust, rate, u in zip(rng.uniform(0, 230, 20), rng.uniform(-300, 300, 20),
+                               rng.uniform(0, 100, 20), strict=True):  # fmt: skip
+        direct = (
+            k_t * thrust + k_tt * thrust**2 + k_d * rate + k_dd * rate**2 + k_td * thrust * rate
+            + (b_u + b_t * thrust + b_d * rate) * (u + b_uu * u**2) + c
+        )  # fmt: skip
+        assert thrust_acceleration(coeffs, thrust, rate, u, UNSCALED) == pytest.approx(direct)
+    # at rest: -0.012799 T^2 + 0.237755 T - 0.692913 = 0 at idle; at full throttle the same
+    # with (1.139026 + 0.019914 T) * 103.02 added (roots by hand: 14.96 N and 220.2 N)
+    idle, full = steady_thrust(coeffs, np.array([0.0, 100.0]), UNSCALED)
+    assert idle == pytest.approx(14.956, abs=1e-3) and full == pytest.approx(220.25, abs=0.01)
