@@ -12,6 +12,7 @@ import contextlib
 import logging
 import os
 import re
+import socket
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -28,6 +29,7 @@ T = TypeVar("T")
 R = TypeVar("R")
 Task = Callable[[Any, Any], Any]  # fn(item, shared) -> result, importable by a worker
 
+CONNECT_S = 10.0  # how long the address may take to accept a connection
 ATTEMPTS = 2  # a task whose worker dies is run once more (Ray: max_retries=1)
 # the settings a Ray worker takes from the driver's environment (not MOTIONKIT_CACHE: a path
 # of this machine; each node keeps its own cache)
@@ -218,6 +220,7 @@ def _ray_session(address: str, error: type[MotionkitError]) -> Iterator[int]:
 
     owned = not ray.is_initialized()
     if owned:
+        _reachable(address, error)  # ray.init waits minutes on an address nothing listens at
         try:
             ray.init(
                 address=address,
@@ -236,6 +239,18 @@ def _ray_session(address: str, error: type[MotionkitError]) -> Iterator[int]:
     finally:
         if owned:
             ray.shutdown()
+
+
+def _reachable(address: str, error: type[MotionkitError]) -> None:
+    """`error` unless something accepts a TCP connection at HOST:PORT (within CONNECT_S)."""
+    if address == "auto":
+        return
+    host, _, port = address.removeprefix("ray://").rpartition(":")
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=CONNECT_S).close()
+    except OSError as exc:
+        reason = exc.strerror or str(exc) or type(exc).__name__
+        raise error(f"--cluster {address}: no Ray cluster answers there ({reason})") from None
 
 
 def forwarded_environment() -> dict[str, str]:
