@@ -6,16 +6,20 @@ local Ray cluster of 2 CPUs that this script starts and stops: wall time and per
 The clips are time-shifted windows of the three sample walks (motionkit/sample/cmu), written as
 BVH into a temporary folder. Per-task overhead: (wall x workers - the tasks' own seconds) / tasks,
 the time a task costs beyond its work (process or worker start, pickling, the driver's writes,
-and for Ray the connection). Every backend's files are compared byte for byte. Needs the [ik]
-and [cluster] extras.
+and for Ray the connection). BLAS runs one thread per task (Ray's workers do by default). Every
+backend's files are compared byte for byte. Needs the [ik] and [cluster] extras.
 """
 
 from __future__ import annotations
 
+import os
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")  # one BLAS thread per task, as on Ray
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
 import argparse
 import contextlib
 import io
-import os
 import signal
 import socket
 import subprocess
