@@ -25,9 +25,8 @@ from motionkit.errors import MotionkitError
 from motionkit.extras import require
 from motionkit.workers import worker_pool
 
-T = TypeVar("T")
 R = TypeVar("R")
-Task = Callable[[Any, Any], Any]  # fn(item, shared) -> result, importable by a worker
+TaskFn = Callable[[Any, Any], Any]  # fn(item, shared) -> result, importable by a worker
 
 CONNECT_S = 10.0  # how long the address may take to accept a connection
 ATTEMPTS = 2  # a task whose worker dies is run once more (Ray: max_retries=1)
@@ -50,11 +49,11 @@ class Finished(Generic[R]):
 
 class Executor(Protocol):
     workers: int  # tasks that run at once
-    where: str  # for the batch's first line: "2 processes", "the Ray cluster at auto (8 CPUs)"
+    where: str  # for the batch's first line: "2 job(s)", "the Ray cluster at auto (8 CPUs)"
     in_process: bool  # tasks run in this process (they may draw progress lines)
 
     def run(
-        self, fn: Task, items: Sequence[Any], names: Sequence[str], shared: Any = None
+        self, fn: TaskFn, items: Sequence[Any], names: Sequence[str], shared: Any = None
     ) -> Iterator[Finished[Any]]: ...
 
 
@@ -101,10 +100,14 @@ def open_executor(
 
 
 class InProcess:
-    workers, where, in_process = 1, "1 job", True
+    """The tasks one after another in this process (a failure here is this process's)."""
+
+    workers = 1
+    where = "1 job(s)"
+    in_process = True
 
     def run(
-        self, fn: Task, items: Sequence[Any], names: Sequence[str], shared: Any = None
+        self, fn: TaskFn, items: Sequence[Any], names: Sequence[str], shared: Any = None
     ) -> Iterator[Finished[Any]]:
         for i, item in enumerate(items):
             yield Finished(i, fn(item, shared))
@@ -121,7 +124,7 @@ class Processes:
         self.where = f"{workers} job(s)"
 
     def run(
-        self, fn: Task, items: Sequence[Any], names: Sequence[str], shared: Any = None
+        self, fn: TaskFn, items: Sequence[Any], names: Sequence[str], shared: Any = None
     ) -> Iterator[Finished[Any]]:
         pending, attempts = deque(range(len(items))), [0] * len(items)
         while pending:
@@ -131,7 +134,7 @@ class Processes:
     def _drain(
         self,
         pool: ProcessPoolExecutor,
-        fn: Task,
+        fn: TaskFn,
         items: Sequence[Any],
         names: Sequence[str],
         pending: deque[int],
@@ -180,7 +183,7 @@ class RayCluster:
         self.where = f"the Ray cluster at {address} ({workers} CPUs)"
 
     def run(
-        self, fn: Task, items: Sequence[Any], names: Sequence[str], shared: Any = None
+        self, fn: TaskFn, items: Sequence[Any], names: Sequence[str], shared: Any = None
     ) -> Iterator[Finished[Any]]:
         import ray
         from ray.exceptions import RayError, RayTaskError
@@ -275,11 +278,11 @@ def _start_worker(shared: Any) -> None:
     _shared = shared
 
 
-def _in_worker(fn: Task, name: str, item: Any) -> Any:
+def _in_worker(fn: TaskFn, name: str, item: Any) -> Any:
     return _run_task(fn, name, item, _shared)
 
 
-def _run_task(fn: Task, name: str, item: Any, shared: Any) -> Any:
+def _run_task(fn: TaskFn, name: str, item: Any, shared: Any) -> Any:
     _kill_hook(name)
     return fn(item, shared)
 
