@@ -5,6 +5,10 @@ solves only what is missing; the trajopt workers use the derivatives the driver 
 from __future__ import annotations
 
 import json
+import os
+import signal
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +22,8 @@ from motionkit.outputs import MANIFEST
 
 pytest.importorskip("ray")
 pytest.importorskip("placo")
-RECIPES = Path(__file__).resolve().parents[2] / "motionkit" / "recipes" / "trajopt"
+REPO = Path(__file__).resolve().parents[2]
+RECIPES = REPO / "motionkit" / "recipes" / "trajopt"
 CLIPS = ("walk0", "walk1", "walk2")
 TARGETS = ("takeoff_+0p00_+0p00_+0p80", "takeoff_+0p00_+0p00_+1p00")
 ARRAYS = ("time", "base_position", "base_orientation", "joint_positions", "joint_velocities")
@@ -134,6 +139,36 @@ def test_an_unreachable_cluster_is_one_line_and_writes_nothing(
     assert err == "motionkit: error: --cluster 127.0.0.1:1: no Ray cluster answers there " \
         "(Connection refused)\n"  # fmt: skip
     assert not out.exists()
+
+
+def test_ctrl_c_on_the_cluster_keeps_the_finished_clips_whole(
+    ray_cluster: Any, tmp_path: Path
+) -> None:
+    """SIGINT after the first clip: status 130 at once, the clips written so far whole and
+    listed, no temporary file, no summary."""
+    walks = tmp_path / "walks"
+    walks.mkdir()
+    for k in range(4):
+        (walks / f"long{k}.bvh").write_text(mini_bvh(arms_down(150 + 10 * k)))
+    out = tmp_path / "out"
+    env = os.environ | {"PYTHONPATH": str(REPO)}
+    argv = ["retarget", str(walks), "--out", str(out), "--cluster", ray_cluster.address]
+    command = [sys.executable, "-m", "motionkit.cli", *argv]
+    process = subprocess.Popen(
+        command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    assert process.stdout is not None
+    for line in process.stdout:
+        if line.startswith("[1/4]"):
+            process.send_signal(signal.SIGINT)
+            break
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 130 and "motionkit: interrupted" in err
+    written = sorted(p.name for p in out.iterdir())
+    clips = [name for name in written if name.endswith(".mcap")]
+    assert written == [MANIFEST, *clips] and 1 <= len(clips) < 4
+    for name in clips:
+        assert read(out / name).frames >= 150
 
 
 def grid_argv(recipe: Path, out: Path, *extra: str) -> list[str]:
