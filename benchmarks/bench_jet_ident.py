@@ -1,19 +1,31 @@
 """Jet identification: the default recipe's fit and held-out accuracy, and the cost of the
-simulator's thrust step against one MJX physics step of the robot.
+simulator's thrust step against one MJX physics step of the robot; with --family, one log of
+each engine of a family the LSTM was not made for.
 
     python benchmarks/bench_jet_ident.py [--batch 4096] [--recipe jet_ident/p250.toml] [--skip-fit]
+    python benchmarks/bench_jet_ident.py --family [--engines p250,spool]
 
-Targets (on the 2-core dev machine): on held-out synthetic logs (profiles not used in
-training) the LSTM's free-run MAE <= 4.995 N and RMSE <= 8.061 N (the paper's figures), below
-both baselines fitted in the same run (second-order grey box, first-order lag), with the noise
-floor beside them; default-recipe training <= 5 minutes; one jitted `thrust_next` for the four
-jets of `--batch` environments <= 5 % of one MJX step of iRonCub at the same batch.
+--family: for every engine of motionkit.jet_ident.family (two of the published second-order
+structure, three of the spool structure; their own coefficients, noise, sensor low-pass, delay
+and ambient), the recipe fits one 9-minute log and scores free runs on a 3-minute held-out log
+of another profile at the same ambient (the models have no temperature input: 1 degC shifts
+the thrust by 0.35 %; over each log the bench still warms by its drift). Targets: on every
+engine the LSTM's MAE <= 1.3 x the noise floor's, MAE and RMSE no worse than the grey box's,
+and below the paper's 4.995 / 8.061 N; fit <= 5 minutes.
+
+Targets of the recipe fit (on the 2-core dev machine): on held-out synthetic logs (profiles
+not used in training) the LSTM's free-run MAE <= 4.995 N and RMSE <= 8.061 N (the paper's
+figures), below both baselines fitted in the same run (second-order grey box, first-order
+lag), with the noise floor beside them; default-recipe training <= 5 minutes; one jitted
+`thrust_next` for the four jets of `--batch` environments <= 5 % of one MJX step of iRonCub
+at the same batch.
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import jax
@@ -23,7 +35,9 @@ import numpy as np
 from motionkit import recipes
 from motionkit.jet_ident.config import JetIdentConfig
 from motionkit.jet_ident.evaluate import evaluate, noise_floor, report_table
-from motionkit.jet_ident.fit import LSTM, identify, lstm_wins
+from motionkit.jet_ident.export import selected
+from motionkit.jet_ident.family import ENGINES
+from motionkit.jet_ident.fit import GREY_BOX, LSTM, identify, lstm_wins
 from motionkit.jet_ident.step import LSTMThrust, initial_state, thrust_next
 from motionkit.jet_ident.synthetic import synthetic_run
 
@@ -89,6 +103,48 @@ def fit_and_score(config: JetIdentConfig) -> LSTMThrust:
     return training.params
 
 
+def family_table(config: JetIdentConfig, names: list[str]) -> None:
+    """Fit one 9-minute log of each engine, free-run a 3-minute held-out log; print the table."""
+    warm = config.train.warmup
+    header = (
+        f"{'engine':<12}{'plant':<7}{'prior, dead time':<20}{'LSTM MAE/RMSE':>15}{'grey box':>13}"
+        f"{'floor':>13}{'ratio':>7}{'chosen':>9}{'fit s':>7}"
+    )
+    print(header)
+    verdicts = []
+    for k, name in enumerate(names, 1):
+        bench = replace(ENGINES[name], duration_s=540.0)
+        train = synthetic_run(bench, k)
+        held = synthetic_run(replace(bench, duration_s=180.0), 100 + k, ambient_c=train.ambient_c)
+        held = held.log
+        start = time.perf_counter()
+        result = identify([train.log], replace(config, bench=bench))
+        fit_s = time.perf_counter() - start
+        metrics, _ = evaluate(result.models(), [held], warm)
+        floor = noise_floor([held])
+        lstm, grey = metrics[LSTM], metrics[GREY_BOX]
+        ratio = lstm.mae / floor[0]
+        ok = (
+            ratio <= 1.3
+            and lstm.mae <= grey.mae
+            and lstm.rmse <= grey.rmse
+            and lstm.mae < PAPER_MAE
+            and lstm.rmse < PAPER_RMSE
+            and fit_s <= 300
+        )
+        verdicts.append(ok)
+        print(
+            f"{name:<12}{bench.plant:<7}"
+            f"{result.training.prior + f', {result.training.delay * held.dt * 1e3:.0f} ms':<20}"
+            f"{lstm.mae:7.3f} /{lstm.rmse:6.3f}{grey.mae:6.3f} /{grey.rmse:5.2f}"
+            f"{floor[0]:6.3f} /{floor[1]:5.2f}{ratio:7.2f}{selected(result.metrics):>9}"
+            f"{fit_s:7.0f}  {verdict(ok)}",
+            flush=True,
+        )
+    print(f"all engines: {verdict(all(verdicts))} (LSTM MAE <= 1.3 x floor, <= grey box, "
+          "< 4.995 / 8.061 N, fit <= 300 s)")  # fmt: skip
+
+
 def thrust_step_cost(params: LSTMThrust, batch: int) -> float:
     """Seconds of one jitted thrust_next for 4 jets x `batch` environments."""
     per_jet = jax.vmap(thrust_next, in_axes=(None, 0, 0, 0))
@@ -129,9 +185,14 @@ def main() -> None:
     parser.add_argument("--batch", type=int, default=4096, help="environments for part (b)")
     parser.add_argument("--recipe", type=Path, default=RECIPE)
     parser.add_argument("--skip-fit", action="store_true", help="part (b) only, random weights")
+    parser.add_argument("--family", action="store_true", help="the engine family table only")
+    parser.add_argument("--engines", default=",".join(ENGINES), help="--family: which engines")
     args = parser.parse_args()
     config = JetIdentConfig.from_toml(args.recipe)
     print(f"recipe {args.recipe}; jax {jax.__version__} on {jax.devices()[0].platform}")
+    if args.family:
+        family_table(config, args.engines.split(","))
+        return
 
     if args.skip_fit:
         from motionkit.jet_ident.model import Normalisation, init_variables

@@ -1,14 +1,16 @@
-"""Can the robot perform its walking priors? The balance filter against the plain retargeter.
+"""Can the robot perform its walking priors? The walk recipe against the plain retargeter.
 
-    python benchmarks/bench_priors.py [CLIP ...] [--passes N]
+    python benchmarks/bench_priors.py [CLIP ...] [--recipe sample_walks] [--slowdown N]
 
-Clips default to the offline sample (motionkit/sample/cmu). Each clip is retargeted twice in the
-same run: without the balance filter (the baseline) and with it (the default). Per clip and setting:
-the physics check (share of single-support frames whose needed centre of pressure lies in the
-stance sole; share of single-support frames with every joint within its effort limit; worst
-joint), the open-loop MuJoCo tracking (share of 1 s windows, every 0.1 s, that fall: PD plus
-inverse-dynamics feed-forward, and PD alone) and the retargeter's acceptance figures (foot slide
-p95, penetration, limit violations, mean foot error). Targets with the filter: CoP inside on at
+Clips default to the recipe's (the offline sample, motionkit/sample/cmu). Each clip is
+retargeted twice in the same run: plain (the baseline: no balance filter, no swing clearance, at
+the human's pace, the whole take) and with the recipe (by default the filter, a 1.5 cm swing
+clearance, 1.25x slower, 11_01 trimmed to its walk). Per clip and setting: the physics check
+(share of single-support frames whose needed centre of pressure lies in the stance sole; share
+of single-support frames with every joint within its effort limit; worst joint), the open-loop
+MuJoCo tracking (share of 1 s windows, every 0.1 s, that fall: PD plus inverse-dynamics
+feed-forward, and PD alone) and the retargeter's acceptance figures (foot slide p95,
+penetration, limit violations, mean foot error). Targets with the recipe: CoP inside on at
 least 90 % and torques within limits on at least 90 % of single-support frames, falls at most
 half of the baseline's, and the acceptance figures (slide p95 <= 1 cm/s, penetration <= 2 mm, no
 limit violations, foot error <= 3 cm).
@@ -26,15 +28,13 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from motionkit import recipes
 from motionkit.dataset import read
 from motionkit.dataset.physics import check_physics
 from motionkit.dataset.tracking import track_windows
-from motionkit.recipes import sample_mocap
 from motionkit.retarget.batch import ClipInput, resolve_inputs, retarget_clip
-from motionkit.retarget.config import Balance, RetargetConfig
+from motionkit.retarget.config import RetargetConfig
 from motionkit.robot import ironcub
-
-SHARED = sample_mocap()
 
 
 def measure(clip: ClipInput, config: RetargetConfig, out: Path) -> dict[str, float | str]:
@@ -88,25 +88,39 @@ def row(name: str, setting: str, m: dict[str, float | str]) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("clips", nargs="*", help="mocap files or folders (default: the recipe's)")
     parser.add_argument(
-        "clips", nargs="*", help="mocap files or folders (default: the offline sample)"
+        "--recipe",
+        type=recipes.argument("retarget"),
+        default=recipes.find("retarget", "sample_walks"),
+        help="retarget recipe: a file or a built-in name (default: sample_walks)",
     )
-    parser.add_argument("--passes", type=int, default=Balance().passes, help="filter passes")
-    parser.add_argument(
-        "--slowdown", type=float, default=1.0, help="the balanced clip this many times slower"
-    )
+    parser.add_argument("--passes", type=int, help="balance filter passes (default: the recipe's)")
+    parser.add_argument("--slowdown", type=float, help="default: the recipe's")
     args = parser.parse_args()
-    inputs = args.clips or [str(SHARED)]
-    clips = resolve_inputs(inputs)
-    balanced = RetargetConfig(balance=replace(Balance(), passes=args.passes))
-    plain = replace(balanced, balance=replace(balanced.balance, passes=0))
-    filtered = replace(balanced, slowdown=args.slowdown)
+    recipe = RetargetConfig.from_toml(args.recipe)
+    base = args.recipe.parent
+    listed = [str(base / c) if (base / c).exists() else c for c in recipe.clips]
+    clips = resolve_inputs(args.clips or listed)
+    filtered = replace(
+        recipe,
+        slowdown=recipe.slowdown if args.slowdown is None else args.slowdown,
+        balance=replace(recipe.balance, passes=args.passes or recipe.balance.passes),
+    )
+    plain = replace(
+        filtered,
+        balance=replace(recipe.balance, passes=0),
+        swing_clearance=0.0,
+        slowdown=1.0,
+        trim={},
+    )
+    print(f"recipe {args.recipe}: slowdown {filtered.slowdown}, trim {dict(filtered.trim)}")
     print(HEADER)
     print(UNITS)
     with tempfile.TemporaryDirectory() as out:
         for clip in clips:
             print(row(clip.name, "plain", measure(clip, plain, Path(out))))
-            print(row(clip.name, "balanced", measure(clip, filtered, Path(out))), flush=True)
+            print(row(clip.name, "recipe", measure(clip, filtered, Path(out))), flush=True)
     print(
         "\nCoP in / tau ok: single-support frames with the needed CoP in the stance sole / every "
         "joint within its effort limit; fall: share of 1 s windows that fall tracked open loop "

@@ -3,6 +3,7 @@ errors of the caller's family) and writing resolved configs back."""
 
 from __future__ import annotations
 
+import re
 import tomllib
 from dataclasses import MISSING, fields, is_dataclass
 from pathlib import Path
@@ -123,12 +124,19 @@ def to_toml(data: dict[str, Any]) -> str:
 
 def _toml_lines(data: dict[str, Any], table: str) -> list[str]:
     """The values of `data` under a [table] header, then each dict among them as a table."""
-    values = [f"{key} = {_toml_value(v)}" for key, v in data.items() if not isinstance(v, dict)]
+    values = [
+        f"{_key(key)} = {_toml_value(v)}" for key, v in data.items() if not isinstance(v, dict)
+    ]
     lines = ["", f"[{table}]", *values] if table and values else values
     for key, value in data.items():
         if isinstance(value, dict):
-            lines += _toml_lines(value, f"{table}.{key}" if table else key)
+            lines += _toml_lines(value, f"{table}.{_key(key)}" if table else _key(key))
     return lines
+
+
+def _key(key: str) -> str:
+    """A TOML key: bare where TOML allows it, else quoted."""
+    return key if re.fullmatch(r"[A-Za-z0-9_-]+", key) else _toml_value(key)
 
 
 def _toml_value(value: Any) -> str:

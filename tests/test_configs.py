@@ -334,3 +334,14 @@ def test_command_line_overrides_are_checked() -> None:
     with pytest.raises(TrajoptError, match=r"\[scenario\]: 'target' should be \[float, float, f"):
         TrajoptConfig().with_scenario(target=(1.0, 2.0))
     assert TrajoptConfig().with_scenario(target=[1, 2, 3]).scenario.target == (1.0, 2.0, 3.0)
+
+
+def test_to_toml_quotes_keys_toml_would_not_read_bare() -> None:
+    import tomllib
+
+    from motionkit.tomlfile import to_toml
+
+    data = {"slowdown": 1.25, "trim": {"11_01": [0.0, 2.7], "take 3.bvh": [1.0, 2.0]}}
+    text = to_toml(data)
+    assert "11_01 = [0.0, 2.7]" in text and '"take 3.bvh" = [1.0, 2.0]' in text
+    assert tomllib.loads(text) == data

@@ -6,8 +6,10 @@
     report = fit_logs([path, ...], out, config)       # the same from CSV files, model and reports
     save_model("model.npz", result.training.params, metadata)
     params, metadata = load_model("model.npz")
+    grey = load_jet("model.npz", "grey_box")           # or "lstm", "selected" (won validation)
     state = initial_state(params, thrust, throttle)
     state, thrust = thrust_next(params, state, thrust, throttle)   # pure JAX; jit and vmap
+    ENGINES["spool"]                                  # a BenchConfig of the engine family
 
 The names that need JAX (the [train] extra) are imported on first use, so that reading logs
 and configs works without it; without JAX they are a JetIdentError naming the extra.
@@ -36,7 +38,10 @@ _LAZY = {
     "noise_floor": "evaluate",
     "save_model": "export",
     "load_model": "export",
+    "load_jet": "export",
+    "ENGINES": "family",
     "LSTMThrust": "step",
+    "GreyBoxThrust": "step",
     "IdealThrust": "step",
     "initial_state": "step",
     "thrust_next": "step",

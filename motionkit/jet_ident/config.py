@@ -1,7 +1,7 @@
 """The jet-identification config: frozen dataclasses, defaults here, filled from TOML recipes.
 
-A recipe has up to three tables, [bench] (the synthetic bench), [model] and [train]; a key left
-out keeps its default below.
+A recipe has up to three tables, [bench] (the synthetic bench, with the engine's parameters in
+[bench.p250] or [bench.spool]), [model] and [train]; a key left out keeps its default below.
 """
 
 from __future__ import annotations
@@ -10,15 +10,59 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from motionkit.checks import check
+from motionkit.checks import check, refusal
 from motionkit.errors import JetIdentError
+from motionkit.jet_ident.p250 import P250_COEFFS, SCALES
 from motionkit.tomlfile import load, read_toml, to_toml
+
+PLANTS = ("p250", "spool")
+PRIORS = ("second_order", "first_order", "none")
+
+
+@dataclass(frozen=True)
+class P250Plant:
+    """An engine of the published second-order structure (p250.py): its 13 coefficients and
+    its normalisation (thrust offset and scale [N], throttle offset and scale [%])."""
+
+    coeffs: tuple[float, ...] = tuple(float(c) for c in P250_COEFFS)
+    scales: tuple[float, float, float, float] = SCALES
+
+    def __post_init__(self) -> None:
+        check(self, JetIdentError, "finite", "coeffs", "scales")
+        if len(self.coeffs) != 13:
+            raise refusal(JetIdentError, "coeffs", "13 numbers (c0..c12)", self.coeffs)
+        if self.scales[1] <= 0 or self.scales[3] <= 0:
+            raise refusal(
+                JetIdentError, "scales", "positive thrust and throttle scales", self.scales
+            )
+
+
+@dataclass(frozen=True)
+class SpoolPlant:
+    """An engine of the spool structure (spool.py)."""
+
+    max_thrust_n: float = 230.0  # thrust at full speed
+    idle_speed: float = 0.3  # fraction of full speed at 0 % throttle
+    thrust_exponent: float = 2.5  # T = max_thrust n^e
+    time_constant_s: float = 0.25  # of the rotor at full speed (tau_full / n below)
+    accel_limit: tuple[float, float] = (0.5, 1.0)  # ECU limits on speed up, down [1/s]
+    fuel_lag_s: float = 0.0  # fuel metering lag (0: a first-order engine)
+
+    def __post_init__(self) -> None:
+        check(self, JetIdentError, "> 0", "max_thrust_n", "thrust_exponent", "time_constant_s")
+        check(self, JetIdentError, "> 0", "accel_limit")
+        check(self, JetIdentError, "in (0, 1)", "idle_speed")
+        check(self, JetIdentError, ">= 0", "fuel_lag_s")
 
 
 @dataclass(frozen=True)
 class BenchConfig:
-    """The synthetic bench (see synthetic.py for what each imperfection does)."""
+    """The synthetic bench (see synthetic.py for what each imperfection does) and its engine:
+    `plant` names the structure, whose table holds the parameters."""
 
+    plant: str = "p250"  # "p250": the published second-order model; "spool": spool.py
+    p250: P250Plant = P250Plant()
+    spool: SpoolPlant = SpoolPlant()
     duration_s: float = 540.0  # one identification run (the published profile: ~9 minutes)
     rate_hz: float = 100.0  # log rate of the public P250 identification logs
     substeps: int = 10  # RK4 steps per sample for the engine model
@@ -52,6 +96,7 @@ class BenchConfig:
         )
 
     def __post_init__(self) -> None:
+        check(self, JetIdentError, PLANTS, "plant")
         check(self, JetIdentError, "> 0", "duration_s", "rate_hz", "sensor_cutoff_hz")
         check(self, JetIdentError, ">= 1", "substeps")
         check(self, JetIdentError, ">= 0", "noise_std_n", "delay_s", "throttle_step_pct")
@@ -63,10 +108,20 @@ class BenchConfig:
 
 @dataclass(frozen=True)
 class ModelConfig:
+    """The LSTM and the physical priors it is tried on (model.py); validation keeps one."""
+
     hidden: int = 32  # LSTM features
+    priors: tuple[str, ...] = ("second_order", "first_order")
+    max_delay_s: float = 0.12  # the longest dead time tried (0: none)
 
     def __post_init__(self) -> None:
         check(self, JetIdentError, ">= 1", "hidden")
+        check(self, JetIdentError, ">= 0", "max_delay_s")
+        check(self, JetIdentError, "non-empty", "priors")
+        check(self, JetIdentError, "distinct", "priors")
+        for prior in self.priors:
+            if prior not in PRIORS:
+                raise refusal(JetIdentError, "priors", f"a list of {', '.join(PRIORS)}", prior)
 
 
 @dataclass(frozen=True)
@@ -83,13 +138,14 @@ class TrainConfig:
     clip_norm: float = 1.0  # gradient clipping (global norm)
     eval_every: int = 100  # steps between validation free-runs
     patience: int = 8  # validations without improvement before stopping early
-    validation_fraction: float = 0.2  # the last part of each log validates
+    validation_fraction: float = 0.2  # this part of each log validates,
+    validation_blocks: int = 4  # in blocks spread over it (the end of each of its quarters)
     max_minutes: float = 4.5  # stop training after this wall time
     seed: int = 0
 
     def __post_init__(self) -> None:
         check(self, JetIdentError, ">= 1", "warmup", "window", "batch", "max_steps")
-        check(self, JetIdentError, ">= 1", "eval_every", "patience")
+        check(self, JetIdentError, ">= 1", "eval_every", "patience", "validation_blocks")
         check(self, JetIdentError, "> 0", "learning_rate", "clip_norm", "max_minutes")
         check(self, JetIdentError, "in (0, 1)", "validation_fraction")
         check(self, JetIdentError, ">= 0", "seed")

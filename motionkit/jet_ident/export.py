@@ -1,22 +1,29 @@
 """The fitted thrust model as one file: a NumPy .npz archive (no pickles).
 
 Arrays: w_input (2, 4H), w_hidden (H, 4H), bias (4H), w_out (H), b_out () as step.LSTMThrust
-holds them (float32), and `metadata`: UTF-8 JSON bytes with
+holds them (float32), optionally prior (6 or 13: the LSTM's physical prior, model.py), and
+`metadata`: UTF-8 JSON bytes with
 
-    format, version       "motionkit.jet_ident.lstm", 1
+    format, version       "motionkit.jet_ident.lstm", 1 (no prior, no dead time) or 2
     dt                    sample interval [s] the model steps by
+    delay                 the model's dead time [samples] (version 2)
     normalisation         thrust_mean, thrust_std [N], throttle_mean, throttle_std [%],
                           rate_scale [N/s]
     hidden                LSTM features
     baselines             {"grey_box": {"coeffs": [13]}, "first_order": {"tau", "static"}}
                           fitted in the same run (optional)
+    selected              "lstm" or "grey_box": the model of lower validation RMSE (optional)
     anything else         the fit's config, logs, metrics (free-form)
+
+`load_jet(path, "lstm" | "grey_box" | "selected")` gives either model as a step of
+`step.thrust_next`.
 """
 
 from __future__ import annotations
 
 import io
 import json
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -25,13 +32,14 @@ import numpy as np
 
 from motionkit.errors import JetIdentError
 from motionkit.jet_ident.baselines import FirstOrderLag, GreyBox
-from motionkit.jet_ident.model import Normalisation
-from motionkit.jet_ident.step import LSTMThrust
+from motionkit.jet_ident.model import FIRST_ORDER, SECOND_ORDER, Normalisation
+from motionkit.jet_ident.step import GreyBoxThrust, LSTMThrust
 from motionkit.outputs import atomic_output
 
-FORMAT, VERSION = "motionkit.jet_ident.lstm", 1
+FORMAT, VERSIONS = "motionkit.jet_ident.lstm", (1, 2)
 ARRAYS = ("w_input", "w_hidden", "bias", "w_out", "b_out")
 NORMALISATION = ("thrust_mean", "thrust_std", "throttle_mean", "throttle_std", "rate_scale")
+JETS = ("lstm", "grey_box", "selected")
 
 
 def save_model(path: Path, params: LSTMThrust, metadata: dict[str, Any] | None = None) -> None:
@@ -40,12 +48,15 @@ def save_model(path: Path, params: LSTMThrust, metadata: dict[str, Any] | None =
     header = {
         **(metadata or {}),
         "format": FORMAT,
-        "version": VERSION,
+        "version": 1 if params.prior is None and not params.delay else 2,
         "dt": float(params.dt),
+        "delay": params.delay,
         "hidden": params.hidden,
         "normalisation": norm,
     }
     arrays = {name: np.asarray(getattr(params, name), dtype=np.float32) for name in ARRAYS}
+    if params.prior is not None:
+        arrays["prior"] = np.asarray(params.prior, dtype=np.float32)
     buffer = io.BytesIO()
     np.savez(buffer, metadata=np.frombuffer(json.dumps(header).encode(), np.uint8), **arrays)
     with atomic_output(Path(path)) as stream:
@@ -70,12 +81,13 @@ def load_model(path: Path) -> tuple[LSTMThrust, dict[str, Any]]:
             **{name: float(metadata["normalisation"][name]) for name in NORMALISATION}
         )
         dt = float(metadata["dt"])
+        delay = int(metadata.get("delay", 0))
     except (ValueError, KeyError, TypeError) as exc:
         raise JetIdentError(f"{path}: metadata is unreadable or incomplete ({exc})") from exc
-    if metadata.get("format") != FORMAT or metadata.get("version") != VERSION:
+    if metadata.get("format") != FORMAT or metadata.get("version") not in VERSIONS:
         raise JetIdentError(
             f"{path}: format {metadata.get('format')!r} version {metadata.get('version')!r}; "
-            f"expected {FORMAT!r} version {VERSION}"
+            f"expected {FORMAT!r} version {' or '.join(map(str, VERSIONS))}"
         )
     w = {name: jnp.asarray(contents[name]) for name in ARRAYS}
     hidden = w["w_hidden"].shape[0]
@@ -84,7 +96,36 @@ def load_model(path: Path) -> tuple[LSTMThrust, dict[str, Any]]:
     for name, shape in shapes.items():
         if w[name].shape != shape:
             raise JetIdentError(f"{path}: {name} has shape {w[name].shape}, expected {shape}")
-    return LSTMThrust(**w, norm=norm, dt=dt), metadata
+    prior = contents.get("prior")
+    if prior is not None and prior.shape not in ((FIRST_ORDER,), (SECOND_ORDER,)):
+        raise JetIdentError(
+            f"{path}: prior has shape {prior.shape}, expected ({FIRST_ORDER},) or ({SECOND_ORDER},)"
+        )
+    if delay < 0:
+        raise JetIdentError(f"{path}: delay {delay}: expected 0 or more samples")
+    prior = None if prior is None else jnp.asarray(prior)
+    return LSTMThrust(**w, norm=norm, dt=dt, prior=prior, delay=delay), metadata
+
+
+def load_jet(path: Path, jet: str = "lstm") -> LSTMThrust | GreyBoxThrust:
+    """The step of one model in `path`: the LSTM, the grey box fitted beside it, or the one
+    `selected` on validation (the LSTM where the file does not say)."""
+    if jet not in JETS:
+        raise JetIdentError(f"jet {jet!r}: expected one of {', '.join(JETS)}")
+    params, metadata = load_model(path)
+    if jet == "selected":
+        jet = metadata.get("selected", "lstm")
+    if jet == "lstm":
+        return params
+    grey = baselines_from_metadata(metadata).get("grey-box 2nd order")
+    if not isinstance(grey, GreyBox):
+        raise JetIdentError(f"{path}: holds no grey box (fitted by an older motionkit)")
+    return GreyBoxThrust(jnp.asarray(grey.coeffs, jnp.float32), params.dt)
+
+
+def selected(metrics: Mapping[str, Any]) -> str:
+    """'lstm' or 'grey_box': the lower validation RMSE of the two (the LSTM on a tie)."""
+    return "lstm" if metrics["LSTM"].rmse <= metrics["grey-box 2nd order"].rmse else "grey_box"
 
 
 def baselines_metadata(grey_box: GreyBox, first_order: FirstOrderLag) -> dict[str, Any]:

@@ -22,8 +22,8 @@ from motionkit.jet_ident.evaluate import (
     plot_models,
     report_table,
 )
-from motionkit.jet_ident.export import baselines_metadata, save_model
-from motionkit.jet_ident.train import TrainResult, train_lstm
+from motionkit.jet_ident.export import baselines_metadata, save_model, selected
+from motionkit.jet_ident.train import TrainResult, split_logs, train_lstm
 from motionkit.outputs import check_out, claim_out, write_text_atomic
 
 SMOOTHING_S = (0.3, 0.5, 0.7, 1.0)  # baseline derivative filters tried; validation picks one
@@ -49,30 +49,22 @@ class Identification:
         }
 
 
-def head_and_tail(log: BenchLog, fraction: float) -> tuple[BenchLog, BenchLog]:
-    cut = round(log.samples * (1 - fraction))
-    parts = [slice(0, cut), slice(cut, None)]
-    return tuple(  # type: ignore[return-value]
-        BenchLog(log.time[s], log.throttle[s], log.thrust[s], f"{log.name}[{part}]", log.metadata)
-        for s, part in zip(parts, ("train", "validation"), strict=True)
-    )
-
-
 def identify(
     logs: Sequence[BenchLog],
     config: JetIdentConfig,
     progress: Callable[[str], None] | None = None,
 ) -> Identification:
     """Fit the LSTM (train.py) and the baselines (their filter width chosen by validation RMSE)
-    on the first part of every log; score all three on the rest."""
+    on the training blocks of every log; score all three on its validation blocks."""
     say = progress or (lambda _: None)
     fraction, warmup = config.train.validation_fraction, config.train.warmup
-    halves = [head_and_tail(log, fraction) for log in logs]
-    train = [h for h, _ in halves]
-    validation = [t for _, t in halves]
+    train, validation = split_logs(logs, fraction, config.train.validation_blocks)
     say(f"training the LSTM on {sum(t.samples for t in train)} samples of {len(logs)} log(s)")
     training = train_lstm(logs, config.model, config.train, progress)
-    say(f"LSTM: best at step {training.best_step} ({training.stopped}, {training.seconds:.0f} s)")
+    say(
+        f"LSTM: {training.prior} prior, best at step {training.best_step} ({training.stopped}, "
+        f"{training.seconds:.0f} s)"
+    )
     candidates = []
     for smoothing in SMOOTHING_S:
         pair = {
@@ -128,11 +120,14 @@ def fit_logs(paths: list[Path], out: Path, config: JetIdentConfig) -> dict[str, 
             "best_step": result.training.best_step,
             "stopped": result.training.stopped,
             "seconds": round(result.training.seconds, 2),
+            "prior": result.training.prior,
         },
         "baseline_smoothing_s": result.smoothing_s,
+        "selected": selected(result.metrics),
     }
     metadata = {
         "baselines": baselines_metadata(result.grey_box, result.first_order),
+        "selected": report["selected"],
         "warmup": warmup,
         "config": config.to_dict(),
         "report": report,
@@ -141,7 +136,10 @@ def fit_logs(paths: list[Path], out: Path, config: JetIdentConfig) -> dict[str, 
     save_model(out / "model.npz", result.training.params, metadata)
     write_text_atomic(out / "config.toml", config.to_toml())
     write_text_atomic(out / "report.json", json.dumps(report, indent=2) + "\n")
-    title = f"validation (free run, last {config.train.validation_fraction:.0%} of each log)"
+    title = (
+        f"validation (free run, {config.train.validation_fraction:.0%} of each log in "
+        f"{config.train.validation_blocks} blocks)"
+    )
     write_text_atomic(out / "report.txt", f"{title}\n{table}\n")
     rows = ["step,loss,val_mae,val_rmse,seconds"]
     rows += [
@@ -152,6 +150,7 @@ def fit_logs(paths: list[Path], out: Path, config: JetIdentConfig) -> dict[str, 
     print(f"\n{title}")
     print(table)
     print(f"LSTM beats both baselines: {'yes' if report['lstm_beats_baselines'] else 'NO'}")
+    print(f"selected for the simulator (validation RMSE): {report['selected']}")
     if plot_models(out / "validation.png", result.validation[0], result.models(), warmup):
         print(f"wrote {out / 'validation.png'}")
     print(f"wrote {out}/model.npz, config.toml, report.json, report.txt, history.csv")

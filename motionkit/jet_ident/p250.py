@@ -9,8 +9,9 @@ v = (u - 47.333) / 31.483:
 
 With the public coefficients the engine idles at 16.0 N (u = 0) and gives 222.1 N at full
 throttle (public figures: 10-16 N idle, 222-237 N full); the 63 % rise time from idle to full
-is 1.39 s. The functions take any coefficient vector (the grey-box baseline fits one) and use
-plain arithmetic only, so that they work on floats, numpy and JAX arrays and CasADi symbols
+is 1.39 s. The functions take any coefficient vector (the grey-box baseline fits one) and, as
+`scales`, any normalisation (another engine of this structure; the published one by default),
+and use plain arithmetic only, so that they work on floats, numpy and JAX arrays and CasADi symbols
 (trajopt's dynamics). At rest (Tdot = 0) the model is quadratic in t and in v, so its steady
 states are closed-form roots; `motionkit.jet_ident.integrate` integrates it in JAX.
 """
@@ -31,31 +32,44 @@ P250_COEFFS = np.array(
 )
 THRUST_OFFSET, THRUST_SCALE = 108.309, 65.793  # N (and N/s for Tdot)
 THROTTLE_OFFSET, THROTTLE_SCALE = 47.333, 31.483  # %
+# The normalisation (thrust offset, thrust scale, throttle offset, throttle scale): another
+# engine of this structure may come with its own, as the keyword `scales` of every function.
+SCALES = (THRUST_OFFSET, THRUST_SCALE, THROTTLE_OFFSET, THROTTLE_SCALE)
+TD_POWER = (0, 0, 1, 1, 0, 2)  # the power of td in each of the six terms
 
 
-def regressors(thrust: Any, rate: Any, throttle: Any) -> tuple[list[Any], Any]:
+def regressors(
+    thrust: Any, rate: Any, throttle: Any, scales: tuple[float, ...] = SCALES
+) -> tuple[list[Any], Any]:
     """The six polynomial terms shared by f and g, and v."""
-    t = (thrust - THRUST_OFFSET) / THRUST_SCALE
-    td = rate / THRUST_SCALE
-    v = (throttle - THROTTLE_OFFSET) / THROTTLE_SCALE
+    thrust_offset, thrust_scale, throttle_offset, throttle_scale = scales
+    t = (thrust - thrust_offset) / thrust_scale
+    td = rate / thrust_scale
+    v = (throttle - throttle_offset) / throttle_scale
     terms = [t * 0 + 1, t, td, t * td, t * t, td * td]
     return terms, v
 
 
-def _f_g(coeffs: Any, thrust: Any, rate: Any, throttle: Any) -> tuple[Any, Any, Any]:
-    terms, v = regressors(thrust, rate, throttle)
+def _f_g(
+    coeffs: Any, thrust: Any, rate: Any, throttle: Any, scales: tuple[float, ...]
+) -> tuple[Any, Any, Any]:
+    terms, v = regressors(thrust, rate, throttle, scales)
     f = sum(coeffs[i] * terms[i] for i in range(6))
     g = sum(coeffs[6 + i] * terms[i] for i in range(6))
     return f, g, v
 
 
-def thrust_acceleration(coeffs: Any, thrust: Any, rate: Any, throttle: Any) -> Any:
+def thrust_acceleration(
+    coeffs: Any, thrust: Any, rate: Any, throttle: Any, scales: tuple[float, ...] = SCALES
+) -> Any:
     """Tddot [N/s^2] at thrust [N], thrust rate [N/s] and throttle [%]."""
-    f, g, v = _f_g(coeffs, thrust, rate, throttle)
-    return THRUST_SCALE * (f + g * (v + coeffs[12] * v * v))
+    f, g, v = _f_g(coeffs, thrust, rate, throttle, scales)
+    return scales[1] * (f + g * (v + coeffs[12] * v * v))
 
 
-def steady_thrust(coeffs: np.ndarray, throttle: np.ndarray | float) -> np.ndarray:
+def steady_thrust(
+    coeffs: np.ndarray, throttle: np.ndarray | float, scales: tuple[float, ...] = SCALES
+) -> np.ndarray:
     """The stable equilibrium thrust [N] at each throttle [%] (NaN where there is none).
 
     At rest Tddot / 65.793 = a t^2 + b t + c with w = v + c12 v^2, a = c4 + c10 w,
@@ -63,20 +77,31 @@ def steady_thrust(coeffs: np.ndarray, throttle: np.ndarray | float) -> np.ndarra
     t = (-b - sqrt(b^2 - 4ac)) / 2a, written as 2c / (sqrt(b^2 - 4ac) - b) so that a -> 0
     (a linear model) is no special case.
     """
-    v = (np.asarray(throttle, dtype=float) - THROTTLE_OFFSET) / THROTTLE_SCALE
+    thrust_offset, thrust_scale, throttle_offset, throttle_scale = scales
+    v = (np.asarray(throttle, dtype=float) - throttle_offset) / throttle_scale
     w = v + coeffs[12] * v * v
     a, b, c = coeffs[4] + coeffs[10] * w, coeffs[1] + coeffs[7] * w, coeffs[0] + coeffs[6] * w
     with np.errstate(invalid="ignore", divide="ignore"):
         t = 2 * c / (np.sqrt(b * b - 4 * a * c) - b)
-    return THRUST_OFFSET + THRUST_SCALE * t
+    return thrust_offset + thrust_scale * t
 
 
-def steady_throttle(coeffs: np.ndarray, thrust: np.ndarray | float) -> np.ndarray:
+def steady_throttle(
+    coeffs: np.ndarray, thrust: np.ndarray | float, scales: tuple[float, ...] = SCALES
+) -> np.ndarray:
     """The throttle [%] that holds each thrust [N] steady: 0 % at or below idle, 100 % at or
     above full thrust. At rest f + g w = 0 gives w = -f / g, and v + c12 v^2 = w its root
     nearest w, v = 2w / (1 + sqrt(1 + 4 c12 w))."""
-    idle, full = steady_thrust(coeffs, np.array([0.0, 100.0]))
-    f, g, _ = _f_g(coeffs, np.clip(thrust, idle, full), 0.0, THROTTLE_OFFSET)
+    idle, full = steady_thrust(coeffs, np.array([0.0, 100.0]), scales)
+    f, g, _ = _f_g(coeffs, np.clip(thrust, idle, full), 0.0, scales[2], scales)
     w = -f / g
     v = 2 * w / (1 + np.sqrt(1 + 4 * coeffs[12] * w))
-    return np.clip(THROTTLE_OFFSET + THROTTLE_SCALE * v, 0.0, 100.0)
+    return np.clip(scales[2] + scales[3] * v, 0.0, 100.0)
+
+
+def retimed(coeffs: np.ndarray, speed: float) -> np.ndarray:
+    """The coefficients of the same engine running `speed` times faster (T(t) -> T(speed t)):
+    Tddot scales by speed^2 and td by speed, so each term's coefficient by speed^(2 - power of
+    td in it); c12 (the throttle's shape) stays."""
+    powers = np.array([*TD_POWER, *TD_POWER])
+    return np.append(np.asarray(coeffs[:12]) * speed ** (2.0 - powers), coeffs[12])

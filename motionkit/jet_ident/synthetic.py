@@ -1,7 +1,9 @@
-"""A synthetic JetCat P250 test bench: realistic identification logs from the published model.
+"""A synthetic JetCat P250 test bench: realistic identification logs from an engine model.
 
-No P250 bench log is public, so logs are made from the published second-order model (p250.py)
-with the imperfections of a real bench, in this order (all in BenchConfig, all seeded):
+No P250 bench log is public, so logs are made from an engine model, by default the published
+second-order P250 model (p250.py; `plant = "p250"` with any coefficients and normalisation, or
+`plant = "spool"`, the shaft-speed model of spool.py), with the imperfections of a real bench,
+in this order (all in BenchConfig, all seeded):
 
 1. Identification profile: after 5 s at idle, a random sequence of steps (held 2-8 s), ramps
    (2-20 s, then held 1-4 s) and exponential chirps (0.01 Hz up to 0.2-0.6 Hz, amplitude 5-20 %,
@@ -9,7 +11,7 @@ with the imperfections of a real bench, in this order (all in BenchConfig, all s
    this command (0.01 % resolution).
 2. The engine sees the command `delay_s` later (whole samples), quantised to
    `throttle_step_pct` (the ECU's resolution).
-3. The engine: the published model, `substeps` RK4 steps per sample, starting at equilibrium.
+3. The engine: its model, `substeps` RK4 steps per sample, starting at equilibrium.
 4. Ambient temperature: thrust scales with air density, gain = (273.15 + reference_c) /
    (273.15 + ambient); the ambient is drawn uniformly in `ambient_c` per log and rises by
    `ambient_drift_c` over the log as the bench warms.
@@ -24,12 +26,14 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.signal import lfilter
 
+from motionkit.jet_ident import spool
 from motionkit.jet_ident.benchlog import BenchLog
 from motionkit.jet_ident.config import BenchConfig
-from motionkit.jet_ident.integrate import simulate
-from motionkit.jet_ident.p250 import P250_COEFFS, steady_thrust
+from motionkit.jet_ident.integrate import integrate, simulate
+from motionkit.jet_ident.p250 import steady_thrust
 
 LEVELS = (10.0, 30.0, 50.0, 70.0, 90.0)  # % throttle the profile moves around
+SOURCES = {"p250": "published second-order model", "spool": "spool model"}
 
 
 @dataclass(frozen=True)
@@ -73,10 +77,29 @@ def identification_profile(
     return np.round(profile, 2)
 
 
+def engine_thrust(config: BenchConfig, throttle: np.ndarray, h: float) -> np.ndarray:
+    """The engine's thrust [N] at the start of each step of `h` under `throttle` (one value per
+    step), one RK4 step each, from rest at the first throttle."""
+    if config.plant == "spool":
+        plant = config.spool
+        start = spool.rest(plant, float(throttle[0]))
+        states = integrate(spool.derivative, plant, None, throttle, h, start, 1)
+        speed = np.concatenate([[start[0]], states[:-1, 0]])
+        return spool.thrust(plant, speed)
+    coeffs, scales = np.array(config.p250.coeffs), config.p250.scales
+    start = float(steady_thrust(coeffs, throttle[0], scales))
+    states = simulate(coeffs, throttle, h, start, 0.0, substeps=1, scales=scales)
+    return np.concatenate([[start], states[:-1, 0]])
+
+
 def synthetic_run(
-    config: BenchConfig, seed: int, throttle: np.ndarray | None = None
+    config: BenchConfig,
+    seed: int,
+    throttle: np.ndarray | None = None,
+    ambient_c: float | None = None,
 ) -> SyntheticRun:
-    """One bench log of the P250 on `throttle` (by default the seeded identification profile)."""
+    """One bench log of the engine on `throttle` (by default the seeded identification
+    profile), starting at `ambient_c` (by default drawn in the config's range)."""
     rng = np.random.default_rng(seed)
     dt = 1.0 / config.rate_hz
     if throttle is None:
@@ -88,12 +111,10 @@ def synthetic_run(
         engine_u = np.round(engine_u / config.throttle_step_pct) * config.throttle_step_pct
 
     h = dt / config.substeps
-    fine_u = np.repeat(engine_u, config.substeps)
-    start = float(steady_thrust(P250_COEFFS, engine_u[0]))
-    states = simulate(P250_COEFFS, fine_u, h, start, 0.0, substeps=1)
-    thrust = np.concatenate([[start], states[:-1, 0]])  # thrust at the start of each fine step
+    thrust = engine_thrust(config, np.repeat(engine_u, config.substeps), h)
 
-    ambient0 = rng.uniform(*config.ambient_c)
+    ambient0 = rng.uniform(*config.ambient_c)  # drawn either way: the noise stays the same
+    ambient0 = ambient0 if ambient_c is None else ambient_c
     ambient = ambient0 + config.ambient_drift_c * np.arange(n * config.substeps) / (
         n * config.substeps
     )
@@ -105,7 +126,7 @@ def synthetic_run(
     measured = clean + config.noise_std_n * rng.standard_normal(n)
 
     metadata = {
-        "source": "motionkit synthetic P250 bench (published second-order model)",
+        "source": f"motionkit synthetic P250 bench ({SOURCES[config.plant]})",
         "seed": str(seed),
         "ambient_c": f"{ambient0:.2f}",
         "noise_std_n": f"{config.noise_std_n:g}",

@@ -1,11 +1,20 @@
 """Fitting the LSTM thrust model: optax Adam on free-run windows (truncated BPTT), validation
-free-runs on the held-back end of every log, early stopping on the validation RMSE."""
+free-runs on held-back blocks of every log, early stopping on the validation RMSE.
+
+One log of an engine covers its operating range sparsely, so three things carry the fit to
+states it has not seen: validation blocks spread over every log (the training windows come from
+all of its parts); a physical prior under the LSTM (model.py), started from least squares on
+the training part and trained with it; and a dead time, the throttle fed `delay` samples late
+(of 0 to `max_delay_s`, the one whose least-squares prior free-runs best on validation). Each
+prior of `ModelConfig.priors` is trained in turn (a share of the time left each); the one best
+on validation is kept.
+"""
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import jax
@@ -14,12 +23,14 @@ import numpy as np
 import optax
 
 from motionkit.errors import JetIdentError
+from motionkit.jet_ident.baselines import fit_grey_box, smoothed
 from motionkit.jet_ident.benchlog import BenchLog
 from motionkit.jet_ident.config import ModelConfig, TrainConfig
-from motionkit.jet_ident.model import Normalisation, init_variables, rollout
+from motionkit.jet_ident.model import Normalisation, first_order_terms, init_variables, rollout
 from motionkit.jet_ident.step import LSTMThrust, free_run_jit
 
 Segment = tuple[np.ndarray, np.ndarray]  # (thrust [N], throttle [%]) of consecutive samples
+PRIOR_SMOOTHING_S = 0.5  # the derivative filter of the priors' least squares
 
 
 @dataclass
@@ -29,6 +40,11 @@ class TrainResult:
     stopped: str  # why training ended: "early stop", "max steps" or "time limit"
     seconds: float
     history: list[dict[str, float]] = field(default_factory=list)
+    prior: str = "none"  # the prior of the best model
+    delay: int = 0  # its dead time [samples]
+    mae: float = float("nan")  # its validation free-run MAE and RMSE [N]
+    rmse: float = float("nan")
+    scores: dict[str, tuple[float, float]] = field(default_factory=dict)  # per prior tried
 
 
 def common_dt(logs: Sequence[BenchLog]) -> float:
@@ -45,14 +61,84 @@ def common_dt(logs: Sequence[BenchLog]) -> float:
     return dts[0]
 
 
-def split(logs: Sequence[BenchLog], fraction: float) -> tuple[list[Segment], list[Segment]]:
-    """Training and validation segments: the last `fraction` of every log validates."""
+def split_logs(
+    logs: Sequence[BenchLog], fraction: float, blocks: int
+) -> tuple[list[BenchLog], list[BenchLog]]:
+    """Training and validation parts: every log cut into `blocks` equal sections, the last
+    `fraction` of each validating (blocks = 1: the end of every log)."""
     train, valid = [], []
     for log in logs:
-        cut = round(log.samples * (1 - fraction))
-        train.append((log.thrust[:cut], log.throttle[:cut]))
-        valid.append((log.thrust[cut:], log.throttle[cut:]))
+        edges = np.linspace(0, log.samples, blocks + 1).round().astype(int)
+        for b in range(blocks):
+            cut = edges[b + 1] - round((edges[b + 1] - edges[b]) * fraction)
+            where = f" {b + 1}/{blocks}" if blocks > 1 else ""
+            for part, s, out in (
+                ("train", slice(edges[b], cut), train),
+                ("validation", slice(cut, edges[b + 1]), valid),
+            ):
+                name = f"{log.name}[{part}{where}]"
+                out.append(
+                    BenchLog(log.time[s], log.throttle[s], log.thrust[s], name, log.metadata)
+                )
     return train, valid
+
+
+def split(
+    logs: Sequence[BenchLog], fraction: float, blocks: int = 1
+) -> tuple[list[Segment], list[Segment]]:
+    """`split_logs` as (thrust, throttle) segments."""
+    train, valid = split_logs(logs, fraction, blocks)
+    return [(p.thrust, p.throttle) for p in train], [(p.thrust, p.throttle) for p in valid]
+
+
+def prior_coeffs(kind: str, train: Sequence[BenchLog], norm: Normalisation) -> np.ndarray | None:
+    """Least-squares start of a prior (model.py) on the training parts."""
+    if kind == "none":
+        return None
+    if kind == "second_order":
+        return np.array(fit_grey_box(train, PRIOR_SMOOTHING_S).coeffs)
+    rows, targets = [], []
+    for log in train:
+        thrust, rate, _ = smoothed(log.thrust, log.dt, PRIOR_SMOOTHING_S)
+        x = np.asarray(norm.inputs(thrust, log.throttle))
+        rows.append(np.stack(first_order_terms(x), axis=1))
+        targets.append(rate / norm.rate_scale)
+    coeffs, *_ = np.linalg.lstsq(np.concatenate(rows), np.concatenate(targets), rcond=None)
+    return coeffs
+
+
+def late(throttle: np.ndarray, delay: int) -> np.ndarray:
+    """The throttle `delay` samples late (its first value held before the log)."""
+    return np.concatenate([np.full(delay, throttle[0]), throttle[: len(throttle) - delay]])
+
+
+def silent(coeffs: np.ndarray, norm: Normalisation, dt: float) -> LSTMThrust:
+    """The prior alone: an LSTM whose output is zero."""
+    zero = jnp.zeros
+    return LSTMThrust(zero((2, 4)), zero((1, 4)), zero(4), zero(1), zero(()), norm, dt, coeffs)
+
+
+def prior_start(
+    kind: str,
+    train: Sequence[BenchLog],
+    valid: Sequence[BenchLog],
+    norm: Normalisation,
+    warmup: int,
+    max_delay: int,
+) -> tuple[np.ndarray | None, int]:
+    """The prior's least-squares coefficients and dead time [samples]: of 0..max_delay, the one
+    whose prior free-runs best on the validation parts."""
+    if kind == "none":
+        return None, 0
+    best: tuple[float, np.ndarray | None, int] = (np.inf, None, 0)
+    for delay in range(max_delay + 1):
+        shifted = [replace(p, throttle=late(p.throttle, delay)) for p in train]
+        coeffs = prior_coeffs(kind, shifted, norm)
+        checks = [(p.thrust, late(p.throttle, delay)) for p in valid]
+        _, rmse = validate(silent(coeffs, norm, train[0].dt), checks, warmup)
+        if best[1] is None or rmse < best[0]:
+            best = (rmse, coeffs, delay)
+    return best[1], best[2]
 
 
 def train_lstm(
@@ -61,21 +147,61 @@ def train_lstm(
     config: TrainConfig,
     progress: Callable[[str], None] | None = None,
 ) -> TrainResult:
-    """Fit the LSTM to `logs`; `progress` receives one line per validation."""
+    """Fit the LSTM to `logs` on each prior of `model.priors` in turn and keep the best on
+    validation; `progress` receives one line per validation."""
     start = time.perf_counter()
     dt = common_dt(logs)
-    train, valid = split(logs, config.validation_fraction)
+    train, valid = split_logs(logs, config.validation_fraction, config.validation_blocks)
     length = config.warmup + config.window
-    for log, (thrust, _), (v_thrust, _) in zip(logs, train, valid, strict=True):
-        if len(thrust) < length or len(v_thrust) < 2 * config.warmup:
-            raise JetIdentError(
-                f"{log.name}: {log.samples} samples are too few for windows of {length} and a "
-                f"validation part of at least {2 * config.warmup}"
-            )
+    short = [p for p in train if p.samples < length]
+    short += [p for p in valid if p.samples < 2 * config.warmup]
+    if short:
+        raise JetIdentError(
+            f"{short[0].name}: {short[0].samples} samples are too few for windows of {length} "
+            f"and validation parts of at least {2 * config.warmup}"
+        )
     norm = Normalisation.fit(
-        np.concatenate([t for t, _ in train]), np.concatenate([u for _, u in train])
+        np.concatenate([p.thrust for p in train]), np.concatenate([p.throttle for p in train])
     )
-    hidden, warmup = model.hidden, config.warmup
+    checks = [(p.thrust, p.throttle) for p in valid]
+    max_delay = round(model.max_delay_s / dt)
+    runs = []
+    for i, kind in enumerate(model.priors):
+        coeffs, delay = prior_start(kind, train, valid, norm, config.warmup, max_delay)
+        segments = [(p.thrust, late(p.throttle, delay)) for p in train]
+        left = config.max_minutes - (time.perf_counter() - start) / 60
+        minutes = left / (len(model.priors) - i)
+        run = _train(
+            segments, checks, norm, dt, (coeffs, delay), model.hidden, config, minutes, progress
+        )
+        run.prior, run.delay = kind, delay
+        runs.append(run)
+        if progress:
+            progress(
+                f"{kind} prior, dead time {delay} samples: validation RMSE {run.rmse:.3f} N "
+                f"at step {run.best_step}"
+            )
+    best = min(runs, key=lambda r: r.rmse)
+    best.scores = {r.prior: (r.mae, r.rmse) for r in runs}
+    best.seconds = time.perf_counter() - start
+    return best
+
+
+def _train(
+    train: Sequence[Segment],
+    valid: Sequence[Segment],
+    norm: Normalisation,
+    dt: float,
+    start_prior: tuple[np.ndarray | None, int],
+    hidden: int,
+    config: TrainConfig,
+    minutes: float,
+    progress: Callable[[str], None] | None,
+) -> TrainResult:
+    start = time.perf_counter()
+    prior, delay = start_prior
+    warmup = config.warmup
+    length = warmup + config.window
     schedule = optax.cosine_decay_schedule(config.learning_rate, config.max_steps, alpha=0.05)
     optimizer = optax.chain(optax.clip_by_global_norm(config.clip_norm), optax.adam(schedule))
 
@@ -90,27 +216,27 @@ def train_lstm(
         return optax.apply_updates(variables, updates), opt_state, loss
 
     rng = np.random.default_rng(config.seed)
-    starts = np.array([len(t) - length + 1 for t, _ in train], dtype=float)
-    variables = init_variables(hidden, config.seed)
+    starts = np.concatenate(  # (segment, offset) of every window
+        [[(i, o) for o in range(len(t) - length + 1)] for i, (t, _) in enumerate(train)]
+    )
+    variables = init_variables(hidden, config.seed, prior)
     opt_state = optimizer.init(variables)
-    best = (np.inf, variables, 0)
-    history: list[dict[str, float]] = []
+    mae, rmse = validate(LSTMThrust.from_variables(variables, norm, dt, delay), valid, warmup)
+    best = (rmse, variables, 0, mae)
+    history: list[dict[str, float]] = [
+        {"step": 0, "loss": float("nan"), "val_mae": mae, "val_rmse": rmse, "seconds": 0.0}
+    ]
     losses: list[float] = []
     stopped, waited = "max steps", 0
     for step in range(1, config.max_steps + 1):
-        which = rng.choice(len(train), size=config.batch, p=starts / starts.sum())
-        offsets = (rng.random(config.batch) * starts[which]).astype(int)
-        thrust = np.stack(
-            [train[w][0][o : o + length] for w, o in zip(which, offsets, strict=True)]
-        )
-        throttle = np.stack(
-            [train[w][1][o : o + length] for w, o in zip(which, offsets, strict=True)]
-        )
+        picks = starts[rng.integers(0, len(starts), config.batch)]
+        thrust = np.stack([train[w][0][o : o + length] for w, o in picks])
+        throttle = np.stack([train[w][1][o : o + length] for w, o in picks])
         variables, opt_state, loss = update(variables, opt_state, thrust, throttle)
         losses.append(float(loss))
         if step % config.eval_every and step != config.max_steps:
             continue
-        mae, rmse = validate(LSTMThrust.from_variables(variables, norm, dt), valid, warmup)
+        mae, rmse = validate(LSTMThrust.from_variables(variables, norm, dt, delay), valid, warmup)
         elapsed = time.perf_counter() - start
         history.append(
             {
@@ -123,7 +249,7 @@ def train_lstm(
         )
         losses = []
         if rmse < best[0]:
-            best, waited = (rmse, variables, step), 0
+            best, waited = (rmse, variables, step, mae), 0
         else:
             waited += 1
         if progress:
@@ -135,18 +261,21 @@ def train_lstm(
         if waited >= config.patience:
             stopped = "early stop"
             break
-        if elapsed > 60 * config.max_minutes:
+        if elapsed > 60 * minutes:
             stopped = "time limit"
             break
-    params = LSTMThrust.from_variables(best[1], norm, dt)
-    return TrainResult(params, best[2], stopped, time.perf_counter() - start, history)
+    params = LSTMThrust.from_variables(best[1], norm, dt, delay)
+    seconds = time.perf_counter() - start
+    return TrainResult(params, best[2], stopped, seconds, history, mae=best[3], rmse=best[0])
 
 
 def validate(params: LSTMThrust, segments: Sequence[Segment], warmup: int) -> tuple[float, float]:
-    """Free-run MAE and RMSE [N] over the segments (their first `warmup` samples excluded)."""
+    """Free-run MAE and RMSE [N] over the segments (their first `warmup` samples excluded);
+    infinite for a model that diverges."""
     errors = [
         np.asarray(free_run_jit(params, jnp.asarray(t), jnp.asarray(u), warmup)) - t[warmup:]
         for t, u in segments
     ]
     error = np.concatenate(errors)
-    return float(np.mean(np.abs(error))), float(np.sqrt(np.mean(error**2)))
+    scores = np.mean(np.abs(error)), np.sqrt(np.mean(error**2))
+    return tuple(float(np.nan_to_num(x, nan=np.inf)) for x in scores)  # type: ignore[return-value]

@@ -83,6 +83,8 @@ def resolve_inputs(
             if path.suffix.lower() not in MOCAP_SUFFIXES:
                 raise RetargetError(f"{path}: not a mocap file (expected .bvh or .amc)")
             found.append(_file_input(path))
+        elif path.exists():
+            raise RetargetError(f"{path}: not a regular file or a folder")
         elif re.fullmatch(r"\d{1,3}_\d{1,2}", text.strip()):
             clip_ids.append(text.strip())
         else:
@@ -125,10 +127,15 @@ def encode_clip(
             licence=CMU_LICENCE if cmu else "",
             acknowledgement=CMU_ACKNOWLEDGEMENT if cmu else "",
         )
+        span = config.trim.get(clip.name)
         frames = motion.frames
+        if span is not None:  # the frames core.trimmed keeps
+            frames = round(span[1] * motion.rate) - round(span[0] * motion.rate) + 1
         total = frames * (config.balance.passes + 1)  # the balance filter solves again
         step = None if progress is None else (lambda t: progress(t + 1, total))
-        trajectory, timings = retarget(motion.landmarks(), motion.rate, robot, config, source, step)
+        trajectory, timings = retarget(
+            motion.landmarks(), motion.rate, robot, config, source, step, span
+        )
         solved = clock.perf_counter()
         data = encode(trajectory, robot)
         encoded = clock.perf_counter()
@@ -308,6 +315,9 @@ def run_retarget(
     names that motionkit did not write is refused; an unreachable cluster writes nothing."""
     _check_names(clips)
     robot = robot or ironcub()
+    unused = sorted(set(config.trim) - {c.name for c in clips})
+    if unused:
+        print(f"note: trim names no clip among the inputs: {', '.join(unused)}")
     names = [f"{c.name}.mcap" for c in clips] + [SUMMARY]
     inline = jobs <= 1 or len(clips) == 1
     with open_executor(min(jobs, len(clips)), cluster, RetargetError, inline) as executor:

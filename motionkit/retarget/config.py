@@ -93,6 +93,9 @@ class RetargetConfig:
     # (a foot that lands moving stops above its place), and after one it blends back to the
     # human's.
     release_time: float = 0.2
+    # A swinging sole's lowest corner stays this high [m] above the ground (blended in over the
+    # release time): the human's toe-off skims the floor, which a robot's flat sole would drag.
+    swing_clearance: float = 0.015
     # The human upper arms are turned outward by this angle [rad]: iRonCub's arm jets would
     # otherwise hit its chest jets when the arms hang down.
     arm_abduction: float = 0.35
@@ -111,6 +114,9 @@ class RetargetConfig:
     balance: Balance = Balance()
     # Clips: files, folders or CMU clip ids (a recipe's list; the CLI's inputs are added).
     clips: tuple[str, ...] = field(default_factory=tuple)
+    # The part of a clip that is retargeted, by clip name (file stem): [start, end] in seconds of
+    # the mocap, for takes that hold more than the motion wanted (a kick after a walk).
+    trim: dict[str, tuple[float, float]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         from motionkit.dataset.trajectory import KINDS
@@ -119,9 +125,14 @@ class RetargetConfig:
         positive = ("contact_height", "contact_speed", "ground_window", "release_time", "slowdown")
         check(self, RetargetError, "> 0", *positive)
         check(self, RetargetError, ">= 0", "smoothing_hz", "min_run", "ground_range")  # 0: off
-        check(self, RetargetError, ">= 0", "collision_margin")
+        check(self, RetargetError, ">= 0", "collision_margin", "swing_clearance")
         check(self, RetargetError, ">= 1", "contact_hysteresis", "iterations", "settle_iterations")
         check(self, RetargetError, "finite", "arm_abduction")
+        for name, (start, end) in self.trim.items():
+            if not 0.0 <= start < end < float("inf"):
+                raise RetargetError(
+                    f"trim '{name}': [{start}, {end}] is not a time range (0 <= start < end)"
+                )
 
     @classmethod
     def from_toml(cls, path: Path) -> RetargetConfig:

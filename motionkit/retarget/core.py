@@ -12,6 +12,7 @@ from scipy.spatial.transform import Rotation
 
 from motionkit.dataset import Metadata, Source, Trajectory
 from motionkit.dataset.physics import PhysicsReport, check_physics
+from motionkit.errors import RetargetError
 from motionkit.mocap.naming import skeleton
 from motionkit.retarget.balance import Pass, balance
 from motionkit.retarget.config import RetargetConfig
@@ -45,14 +46,17 @@ def retarget(
     config: RetargetConfig,
     source: Source | None = None,
     progress: Callable[[int], None] | None = None,
+    span: tuple[float, float] | None = None,
 ) -> tuple[Trajectory, Timings]:
     """The robot motion that follows human landmarks (world positions [m], Z up, at `rate` Hz),
     made balanceable by the dynamic filter (`config.balance`: the base moves so that the
     centre of pressure stays in the support), with its quality and physics figures (and what
     the filter changed) in the metadata, and the human (low-passed, scaled to the robot:
     what it was retargeted to) as the clip's landmarks; landmarks outside
-    motionkit.mocap.LANDMARKS are not written."""
+    motionkit.mocap.LANDMARKS are not written. `span`: only [start, end] s of the human motion."""
     start = clock.perf_counter()
+    if span is not None:
+        landmarks = trimmed(landmarks, rate, span)
     points = robot_points(robot, config.points)
     targets = make_targets(
         landmarks, rate, RobotGeometry(robot, points, config.points.torso_frame), config
@@ -97,10 +101,26 @@ def retarget(
     metrics = compute_metrics(robot, goals, points, base, joints) | metrics
     metrics["scale"] = targets.scale
     metrics["slowdown"] = config.slowdown
+    if span is not None:
+        metrics["source_span_s"] = list(span)
     metrics["physics"] = check(base, joints).summary()
     measured = clock.perf_counter()
     trajectory = motion.trajectory(targets, base, joints, metrics)
     return trajectory, Timings(planned - start, solved - planned, measured - solved)
+
+
+def trimmed(
+    landmarks: dict[str, Array], rate: float, span: tuple[float, float]
+) -> dict[str, Array]:
+    """The frames of `landmarks` (at `rate` Hz) from span[0] to span[1] s, both included."""
+    frames = len(next(iter(landmarks.values())))
+    duration = (frames - 1) / rate
+    first, last = round(span[0] * rate), round(span[1] * rate)
+    if last > frames - 1 + 1e-6 * rate or last - first < 1:
+        raise RetargetError(
+            f"trim [{span[0]}, {span[1]}] s does not fit the motion ({duration:.3f} s long)"
+        )
+    return {name: values[first : last + 1] for name, values in landmarks.items()}
 
 
 def _changes(before: dict[str, Any], physics: dict[str, Any], passes: list[Pass]) -> dict[str, Any]:

@@ -361,7 +361,7 @@ def _sole_targets(
     sole[:, :3, :3] = rotation
     sole[:, :2, 3] = position[:, :2] + offset[:, :2]
     sole[:, 2, 3] = free * position[:, 2]
-    # no corner below the ground
+    # no corner below the ground, nor below the clearance of a swinging sole
     lowest = np.min(np.einsum("tij,cj->tci", rotation, geometry.corners[side])[..., 2], axis=1)
-    sole[:, 2, 3] = np.maximum(sole[:, 2, 3], -lowest)
+    sole[:, 2, 3] = np.maximum(sole[:, 2, 3], free * config.swing_clearance - lowest)
     return sole, hold

@@ -34,6 +34,7 @@ thrust usage (mean T / T_max), falls per episode, episode duration.
 
   motionkit train --config tiny_cpu --out runs/tiny --priors none
   motionkit train --config paper_gpu --out runs/paper
+  motionkit train --config paper_gpu --out runs/paper2 --devices 2   # 2 GPUs of this host
   motionkit train ablation --config paper_gpu --out runs/ablation"""
 
 
@@ -89,7 +90,26 @@ def _common(
         )
     parser.add_argument("--iterations", type=int, help="override [run] iterations")
     parser.add_argument("--seed", type=int, help="override [run] seed")
+    parser.add_argument(
+        "--devices",
+        type=_devices,
+        metavar="N|all",
+        help="override [run] devices: local devices to split the environments over (default 1)",
+    )
     robot_source(parser)
+
+
+def _devices(text: str) -> int | str:
+    """`--devices` as a count or 'all'."""
+    if text == "all":
+        return text
+    try:
+        count = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a count or 'all'") from None
+    if count < 0:
+        raise argparse.ArgumentTypeError(f"{count}: expected a count >= 0 (0: all)")
+    return count
 
 
 def parse_priors(text: str | None, available: list[str]) -> list[str]:
@@ -115,6 +135,8 @@ def _config(args: argparse.Namespace):  # -> TrainConfig
         run = replace(run, iterations=args.iterations)
     if args.seed is not None:
         run = replace(run, seed=args.seed)
+    if args.devices is not None:
+        run = replace(run, devices=args.devices)
     return replace(config, run=run)
 
 

@@ -16,9 +16,10 @@ from motionkit.errors import TrainError
 from motionkit.tomlfile import load, read_toml, to_toml
 
 SCENARIOS = ("flat", "terrain")
-JETS = ("ideal", "lstm")
+JETS = ("ideal", "lstm", "grey_box", "selected")  # the last three: models of jet_model
 ACTION_MAPPINGS = ("range", "stand")
 LR_SCHEDULES = ("constant", "adaptive")
+IMPLS = ("jax", "warp")  # MJX on JAX (any device) or on MuJoCo Warp (NVIDIA GPUs)
 
 
 @dataclass(frozen=True)
@@ -34,8 +35,10 @@ class EnvConfig:
     action_mapping: str = "range"
     action_scale: float = 0.7
     reset_from_prior: float = 0.85  # chance that a reset starts in a prior frame (else standing)
-    jet: str = "ideal"  # "ideal": action = thrust rate; "lstm": action = throttle (jet_model)
-    jet_model: str = ""  # model.npz written by `motionkit jet-ident fit` (jet = "lstm")
+    # "ideal": action = thrust rate; "lstm", "grey_box" or "selected" (the one of the two that
+    # won jet-ident's validation): action = throttle, the model from jet_model
+    jet: str = "ideal"
+    jet_model: str = ""  # model.npz written by `motionkit jet-ident fit` (jet other than ideal)
     thrust_rate_max: float = 300.0  # N/s, ideal jet
     initial_thrust: tuple[float, float] = (0.0, 0.0)  # N per jet at a standing reset (ideal jet)
     min_base_height: float = 0.4  # m above the terrain; lower ends the episode (a fall)
@@ -52,6 +55,7 @@ class EnvConfig:
     joint_noise: float = 0.05  # rad, uniform noise on the standing posture at reset
     solver_iterations: int = 4  # MJX Newton iterations (cheap and good enough at 240 Hz)
     ls_iterations: int = 6
+    impl: str = "jax"  # the MJX backend: "jax" or "warp" (NVIDIA GPU, `motionkit[warp]`)
     terrain_size: float = 16.0  # m, side of the square terrain ("terrain" scenario)
     terrain_seed: int = 0
 
@@ -67,8 +71,11 @@ class EnvConfig:
         check(self, TrainError, SCENARIOS, "scenario")
         check(self, TrainError, JETS, "jet")
         check(self, TrainError, ACTION_MAPPINGS, "action_mapping")
-        if self.jet == "lstm" and not self.jet_model:
-            raise TrainError("jet = 'lstm' needs 'jet_model', the model.npz of jet-ident fit")
+        check(self, TrainError, IMPLS, "impl")
+        if self.jet != "ideal" and not self.jet_model:
+            raise TrainError(
+                f"jet = '{self.jet}' needs 'jet_model', the model.npz of jet-ident fit"
+            )
         check(self, TrainError, "> 0", "control_hz", "episode_seconds", "action_scale")
         check(self, TrainError, "> 0", "thrust_rate_max", "waypoint_radius", "ground_height")
         check(self, TrainError, "> 0", "terrain_size")
@@ -78,7 +85,7 @@ class EnvConfig:
         check(self, TrainError, "in [0, 1]", "air_probability", "reset_from_prior")
         check(self, TrainError, ">= 0", "waypoint_distance", "air_height", "initial_thrust")
         check(self, TrainError, "[low, high]", "waypoint_distance", "air_height", "initial_thrust")
-        if self.jet == "lstm" and self.initial_thrust != (0.0, 0.0):
+        if self.jet != "ideal" and self.initial_thrust != (0.0, 0.0):
             raise TrainError("'initial_thrust' needs jet = 'ideal' (the LSTM starts at idle)")
         if self.waypoint_timeout and self.timeout_factor + self.timeout_extra <= 0:
             raise TrainError("a waypoint timeout needs timeout_factor or timeout_extra > 0")
@@ -190,9 +197,15 @@ class RunConfig:
     checkpoint_every: int = 250
     max_minutes: float = 0.0  # stop after this wall time (0: no limit)
     tensorboard: bool = True  # also write TensorBoard events (needs tensorboardX)
+    # local devices the environments are split over (0 or "all": every one); parameters are
+    # replicated, gradients averaged over the global batch (`motionkit.train.devices`)
+    devices: int | str = 1
 
     def __post_init__(self) -> None:
         check(self, TrainError, ">= 1", "iterations", "log_every", "eval_rollouts")
+        count = isinstance(self.devices, int) and not isinstance(self.devices, bool)
+        if self.devices != "all" and not (count and self.devices >= 0):
+            raise refusal(TrainError, "devices", "a count >= 1, 0 or 'all'", self.devices)
         check(self, TrainError, ">= 1", "checkpoint_every")
         check(self, TrainError, ">= 0", "seed", "eval_every", "max_minutes")
 
@@ -217,6 +230,13 @@ class TrainConfig:
     amp: AmpConfig = AmpConfig()
     run: RunConfig = RunConfig()
     priors: dict[str, PriorConfig] = field(default_factory=dict)  # [priors.NAME] tables
+
+    def __post_init__(self) -> None:
+        devices, envs = self.run.devices, self.ppo.num_envs
+        if isinstance(devices, int) and devices > 0 and envs % devices:
+            raise TrainError(
+                f"[ppo] num_envs ({envs}) must be a multiple of [run] devices ({devices})"
+            )
 
     @classmethod
     def from_toml(cls, path: Path) -> TrainConfig:

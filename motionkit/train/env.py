@@ -37,14 +37,15 @@ import numpy as np
 from flax import struct
 
 from motionkit.dataset.amp import FeatureLayout
-from motionkit.jet_ident.step import LSTMThrust
+from motionkit.errors import TrainError
+from motionkit.jet_ident.step import GreyBoxThrust, LSTMThrust
 from motionkit.robot import Robot
 from motionkit.train import terrain as terrain_lib
 from motionkit.train import waypoints
 from motionkit.train.amp import PriorData, amp_features
 from motionkit.train.config import EnvConfig, RewardConfig
 from motionkit.train.jets import Jets
-from motionkit.train.mjx import mjx
+from motionkit.train.mjx import mjx, warp_missing
 from motionkit.train.rewards import task_reward, task_terms
 from motionkit.train.spatial import facing_angle, quat_mul, quat_to_matrix
 
@@ -111,18 +112,42 @@ def mjcf_text(robot: Robot, terrain: terrain_lib.Terrain | None) -> str:
     return ET.tostring(root, encoding="unicode")
 
 
+def put_on_backend(
+    model: mujoco.MjModel, data: mujoco.MjData, impl: str, worlds: int
+) -> tuple[mjx.Model, mjx.Data]:
+    """The MJX model and data on backend `impl` ("jax" or "warp"). MuJoCo Warp allocates its
+    contacts for all the worlds stepped together (`worlds`, the environments on one device) and
+    its constraints per world: as many as MJX-JAX has (every candidate contact)."""
+    if impl == "jax":
+        return mjx.put_model(model, impl="jax"), mjx.put_data(model, data, impl="jax")
+    missing = warp_missing()
+    if missing:
+        raise TrainError(f"[env] impl = 'warp' needs {missing}")
+    sizes = mjx.put_data(model, data, impl="jax")._impl  # MJX-JAX's static contact arrays
+    warp_data = mjx.put_data(
+        model,
+        data,
+        impl="warp",
+        naconmax=max(1, sizes.ncon) * worlds,
+        njmax=max(1, sizes.efc_J.shape[0]),
+    )
+    return mjx.put_model(model, impl="warp"), warp_data
+
+
 class Env:
     """iRonCub in MJX with waypoint routes; a plain Python object holding static data.
     `prior`: the motion priors (`motionkit.train.priors.load_priors`) whose frames resets may
-    start from; `self.prior` holds them with the environment's thrust features."""
+    start from; `self.prior` holds them with the environment's thrust features. `worlds`: the
+    environments stepped together on one device (sizes MuJoCo Warp's contact buffer)."""
 
     def __init__(
         self,
         robot: Robot,
         config: EnvConfig,
         reward: RewardConfig | None = None,
-        jet_model: LSTMThrust | None = None,
+        jet_model: LSTMThrust | GreyBoxThrust | None = None,
         prior: PriorData | None = None,
+        worlds: int = 1,
     ) -> None:
         self.robot, self.config = robot, config
         self.reward_config = reward or RewardConfig()
@@ -140,8 +165,7 @@ class Env:
         data = mujoco.MjData(model)
         mujoco.mj_resetDataKeyframe(model, data, model.key("stand").id)
         mujoco.mj_kinematics(model, data)  # no collision: MJX sizes its own contact arrays
-        self.mx = mjx.put_model(model)
-        self.stand = mjx.put_data(model, data)
+        self.mx, self.stand = put_on_backend(model, data, config.impl, worlds)
 
         spec = robot.spec
         joints = len(robot.joint_names)

@@ -1,9 +1,10 @@
-"""The environment's jets: the model that steps them (the ideal jet or the fitted LSTM, through
-`motionkit.jet_ident.step.thrust_next`), its idle thrust, and the model state of a jet resting
-at a given thrust, so that an episode can start mid-flight.
+"""The environment's jets: the model that steps them (the ideal jet, or the fitted LSTM or grey
+box, through `motionkit.jet_ident.step.thrust_next`), its idle thrust, and the model state of a
+jet resting at a given thrust, so that an episode can start mid-flight.
 
 Actions in [-1, 1] map to the jet input: the ideal jet's thrust rate a * thrust_rate_max, or
-the LSTM's throttle 50 + 50 a [%]. The rest action holds the thrust (ideal jet) or idles (LSTM).
+the fitted model's throttle 50 + 50 a [%]. The rest action holds the thrust (ideal jet) or
+idles (fitted models).
 """
 
 from __future__ import annotations
@@ -14,26 +15,39 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from motionkit.jet_ident.step import IdealThrust, LSTMThrust, initial_state, thrust_next
+from motionkit.jet_ident.step import (
+    GreyBoxThrust,
+    IdealThrust,
+    LSTMThrust,
+    initial_state,
+    thrust_next,
+    zero_state,
+)
 from motionkit.train.config import EnvConfig
 
-THROTTLES = np.linspace(0.0, 100.0, 21)  # % at which the LSTM's steady thrust is tabulated
-TABLE_SIZE = 64  # thrusts at which the resting LSTM state is tabulated
+THROTTLES = np.linspace(0.0, 100.0, 21)  # % at which the model's steady thrust is tabulated
+TABLE_SIZE = 64  # thrusts at which the resting model state is tabulated
 SETTLE_SECONDS = 30.0  # long enough for the thrust of a P250 model to settle
 
 
 class Jets:
     """The jets of one robot (same model for every jet, each with its own T_max)."""
 
-    def __init__(self, config: EnvConfig, t_max: np.ndarray, lstm: LSTMThrust | None) -> None:
+    def __init__(
+        self, config: EnvConfig, t_max: np.ndarray, model: LSTMThrust | GreyBoxThrust | None
+    ) -> None:
         self.config = config
         self.t_max = jnp.asarray(t_max, jnp.float32)
         self.count = len(t_max)
-        if config.jet == "lstm":
-            if lstm is None:
-                raise ValueError("jet = 'lstm' needs the fitted LSTM (jet_model)")
-            self.steps = max(1, round(config.control_dt / lstm.dt))
-            self.params: IdealThrust | LSTMThrust = lstm.replace(dt=config.control_dt / self.steps)
+        if config.jet != "ideal":
+            if model is None:
+                raise ValueError(f"jet = '{config.jet}' needs the fitted model (jet_model)")
+            self.steps = max(1, round(config.control_dt / model.dt))
+            self.params: Any = model.replace(dt=config.control_dt / self.steps)
+            if isinstance(model, LSTMThrust):  # the same dead time at the new step
+                self.params = self.params.replace(
+                    delay=round(model.delay * model.dt / self.params.dt)
+                )
             steady = np.maximum.accumulate(self._steady_thrust(THROTTLES))
             self.idle = float(max(steady[0], 0.0))
             self.rest_action = -1.0  # 0 % throttle
@@ -48,7 +62,7 @@ class Jets:
             self._table = None
 
     def _steady_thrust(self, throttles: np.ndarray) -> np.ndarray:
-        """The thrust [N] the LSTM settles at under each constant throttle, from rest."""
+        """The thrust [N] the model settles at under each constant throttle, from rest."""
         params, top = self.params, float(jnp.max(self.t_max))
         length = round(SETTLE_SECONDS / params.dt)
 
@@ -57,32 +71,36 @@ class Jets:
                 state, thrust = thrust_next(params, *carry, u)
                 return (state, jnp.clip(thrust, 0.0, top)), None
 
-            zero = jnp.zeros(params.hidden)
-            (_, thrust), _ = jax.lax.scan(one, ((zero, zero), jnp.zeros(())), None, length)
+            (_, thrust), _ = jax.lax.scan(one, (zero_state(params), jnp.zeros(())), None, length)
             return thrust
 
         return np.asarray(jax.jit(jax.vmap(settle))(jnp.asarray(throttles, jnp.float32)))
 
     def _resting_states(self, steady: np.ndarray) -> tuple[jax.Array, ...]:
-        """(thrusts, c, h): the LSTM state of a jet resting at each tabulated thrust, under the
-        throttle that holds it there (from the steady-state curve)."""
+        """(thrusts, *state): the model state of a jet resting at each tabulated thrust, under
+        the throttle that holds it there (from the steady-state curve)."""
         thrusts = np.linspace(0.0, float(jnp.max(self.t_max)), TABLE_SIZE)
         # at or below idle the jet rests at 0 %; where the curve is flat, within the flat part
         throttles = np.where(thrusts <= steady[0], 0.0, np.interp(thrusts, steady, THROTTLES))
         rest = jax.vmap(lambda t, u: initial_state(self.params, t, u))
-        c, h = rest(jnp.asarray(thrusts, jnp.float32), jnp.asarray(throttles, jnp.float32))
-        return jnp.asarray(thrusts, jnp.float32), c, h
+        states = rest(jnp.asarray(thrusts, jnp.float32), jnp.asarray(throttles, jnp.float32))
+        return (jnp.asarray(thrusts, jnp.float32), *states)
 
     def state_at(self, thrust: jax.Array) -> Any:
         """The model state of jets (jets,) resting at `thrust` [N] (linear in the table)."""
         if self._table is None:
             return ()
-        thrusts, c, h = self._table
+        thrusts, *states = self._table
         position = jnp.clip(thrust / thrusts[1], 0.0, TABLE_SIZE - 1.0)
         low = jnp.floor(position).astype(jnp.int32)
         high = jnp.minimum(low + 1, TABLE_SIZE - 1)
-        w = (position - low)[:, None]
-        return (1 - w) * c[low] + w * c[high], (1 - w) * h[low] + w * h[high]
+        w = position - low
+
+        def lerp(table: jax.Array) -> jax.Array:
+            weight = w.reshape(w.shape + (1,) * (table.ndim - 1))
+            return (1 - weight) * table[low] + weight * table[high]
+
+        return tuple(lerp(table) for table in states)
 
     def step(self, state: Any, thrust: jax.Array, action: jax.Array) -> tuple[Any, jax.Array]:
         """One control step of every jet: (model state, thrust [N]) after `action` (jets,)."""
@@ -97,5 +115,5 @@ class Jets:
 
     def feature(self, thrust: jax.Array) -> jax.Array:
         """Thrust as the AMP features see it: above idle, per T_max. A jet that is off (0 N in
-        a walking clip) and one idling (an LSTM cannot go below idle) look alike."""
+        a walking clip) and one idling (a fitted model cannot go below idle) look alike."""
         return jnp.maximum(thrust - self.idle, 0.0) / self.t_max

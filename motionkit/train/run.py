@@ -22,6 +22,7 @@ from motionkit.robot import Robot
 from motionkit.train.amp import PriorData
 from motionkit.train.checkpoint import NAME, load_checkpoint, save_checkpoint
 from motionkit.train.config import TrainConfig
+from motionkit.train.devices import resolve_devices
 from motionkit.train.env import Env
 from motionkit.train.evaluate import evaluate, save_rollout
 from motionkit.train.metrics_log import MetricsLog
@@ -34,19 +35,26 @@ OUTPUTS = (
 )  # fmt: skip
 
 
+def envs_split(config: TrainConfig) -> int:
+    """The devices a config's environments are split over (TrainError if it cannot be)."""
+    return resolve_devices(config.run.devices, jax.local_device_count(), config.ppo.num_envs)
+
+
 def make_env(config: TrainConfig, robot: Robot, prior: PriorData | None = None) -> Env:
-    """The environment of a config (with its LSTM jets loaded) and the priors it resets from."""
+    """The environment of a config (with its LSTM jets loaded) and the priors it resets from,
+    sized for the environments of one device."""
     jet_model = None
-    if config.env.jet == "lstm":
+    if config.env.jet != "ideal":
         from motionkit.errors import JetIdentError
-        from motionkit.jet_ident.export import load_model
+        from motionkit.jet_ident.export import load_jet
 
         try:
-            jet_model, _ = load_model(Path(config.env.jet_model))
+            jet_model = load_jet(Path(config.env.jet_model), config.env.jet)
         except JetIdentError as exc:
             raise TrainError(f"[env] jet_model: {exc}") from exc
+    worlds = config.ppo.num_envs // envs_split(config)
     try:
-        return Env(robot, config.env, config.reward, jet_model, prior)
+        return Env(robot, config.env, config.reward, jet_model, prior, worlds)
     except ValueError as exc:  # priors made for another robot layout
         raise TrainError(str(exc)) from exc
 
@@ -78,7 +86,7 @@ def train(
     run = config.run
     learner, carry = trainer.init(run.seed)
     if resume:  # checked before anything is written
-        learner = load_checkpoint(checkpoint, learner)
+        learner = trainer.replicate(load_checkpoint(checkpoint, learner))
         key = jax.random.fold_in(jax.random.key(run.seed), int(learner.iteration))
         carry = trainer.new_carry(*jax.random.split(key))
     claim_out(out, OUTPUTS, TrainError)
@@ -88,8 +96,10 @@ def train(
     log = MetricsLog(out, run.tensorboard)
     if log.note:
         progress(log.note)
+    platform = trainer.mesh.devices.flat[0].platform
     progress(
-        f"{config.ppo.num_envs} envs x {config.ppo.rollout_steps} steps per iteration, "
+        f"{config.ppo.num_envs} envs x {config.ppo.rollout_steps} steps per iteration on "
+        f"{trainer.devices} {platform} device(s), MJX {config.env.impl}, "
         f"scenario {config.env.scenario}, jets {config.env.jet}, priors "
         f"{', '.join(config.priors) or 'none'}; obs {env.obs_size}, actions {env.action_size}"
     )

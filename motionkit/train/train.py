@@ -5,6 +5,13 @@ transitions against the policy's, half from this rollout and half from the repla
     trainer = Trainer(config, env)        # env.prior: PriorData or None (no style reward)
     learner, carry = trainer.init(seed)
     learner, carry, metrics = trainer.iteration(learner, carry)
+
+On several devices (`[run] devices`, `motionkit.train.devices`) the environments are split
+over a 1-D mesh: the rollout runs per device (`shard_map`, the action noise drawn for the
+whole batch first, so that any split draws the same), the update under `jit` on the split
+batch with the learner replicated; a minibatch is split over the devices too, so each
+gradient is the mean of the devices' parts. Seeded runs agree with one device to float
+rounding.
 """
 
 from __future__ import annotations
@@ -15,9 +22,12 @@ import jax
 import jax.numpy as jnp
 import optax
 from flax import struct
+from jax.sharding import Mesh
+from jax.sharding import PartitionSpec as P
 
 from motionkit.train.amp import Discriminator, PriorData, ReplayBuffer, discriminator_loss
 from motionkit.train.config import TrainConfig
+from motionkit.train.devices import AXIS, batch_sharding, make_mesh, replicated
 from motionkit.train.env import Env, EnvState
 from motionkit.train.normalize import RunningNorm
 from motionkit.train.ppo import (
@@ -91,8 +101,14 @@ class Rollout:
 
 
 class Trainer:
-    def __init__(self, config: TrainConfig, env: Env) -> None:
-        self.config, self.env, self.prior = config, env, env.prior
+    def __init__(self, config: TrainConfig, env: Env, mesh: Mesh | None = None) -> None:
+        """`mesh`: the devices to train on (default: `make_mesh` of `[run] devices`)."""
+        self.config, self.env = config, env
+        if mesh is None:
+            mesh = make_mesh(config.run.devices, config.ppo.num_envs)
+        self.mesh = mesh
+        self.devices = self.mesh.size
+        self.prior = self.replicate(env.prior)
         prior: PriorData | None = env.prior
         ppo = config.ppo
         self.net = ActorCritic(
@@ -109,12 +125,21 @@ class Trainer:
         )
         self.disc_tx = optax.adam(config.amp.learning_rate)
         self.use_style = prior is not None and config.reward.w_style > 0
-        self.reset = jax.jit(jax.vmap(env.reset))
+        self.reset = self._split_reset(env.reset)
         # evaluations start standing, with the task's share of air waypoints
         standing = lambda key: env.reset(key, env.config.air_probability, 0.0)  # noqa: E731
-        self.reset_standing = jax.jit(jax.vmap(standing))
+        self.reset_standing = self._split_reset(standing)
         self.rollout = jax.jit(self._rollout)
-        self.update = jax.jit(self._update)
+        kept = replicated(self.mesh)
+        self.update = jax.jit(self._update, out_shardings=(kept, kept, kept))
+
+    def _split_reset(self, reset: Any) -> Any:
+        """`reset` of one environment as a jitted batch reset of keys split over the mesh."""
+        batch = jax.shard_map(
+            jax.vmap(reset), mesh=self.mesh, in_specs=P(AXIS), out_specs=P(AXIS), check_vma=False
+        )
+        split = batch_sharding(self.mesh)
+        return jax.jit(lambda keys: batch(jax.device_put(keys, split)))
 
     # -- setup ----------------------------------------------------------------------------------
     def init(self, seed: int) -> tuple[Learner, Carry]:
@@ -135,25 +160,49 @@ class Trainer:
             iteration=jnp.array(0),
             env_steps=jnp.array(0.0),
         )
-        return learner, self.new_carry(k_env, k_run)
+        return self.replicate(learner), self.new_carry(k_env, k_run)
+
+    def replicate(self, tree: Any) -> Any:
+        """`tree` (a learner, a replay buffer) on every device of the mesh."""
+        return jax.device_put(tree, replicated(self.mesh))
 
     def new_carry(self, k_env: jax.Array, k_run: jax.Array) -> Carry:
         n = self.config.ppo.num_envs
         buffer = ReplayBuffer.create(self.config.amp.buffer_size, self.env.chi_size)
-        return Carry(self.reset(jax.random.split(k_env, n)), buffer, k_run)
+        state = self.reset(jax.random.split(k_env, n))
+        return Carry(state, self.replicate(buffer), self.replicate(k_run))
 
     # -- rollout --------------------------------------------------------------------------------
     def _rollout(
         self, learner: Learner, state: EnvState, key: jax.Array, noise: jax.Array
     ) -> tuple[EnvState, Rollout]:
         """rollout_steps steps of every environment; actions mean + noise * std * N(0, 1)
-        (noise 1 to learn, 0 to evaluate)."""
+        (noise 1 to learn, 0 to evaluate). The N(0, 1) draws are made for the whole batch,
+        split over the devices like the environments, then each device steps its part."""
+        shape = (state.obs.shape[0], self.env.action_size)
+        draw = lambda k: jax.random.normal(k, shape)  # noqa: E731
+        normal = jax.vmap(draw)(jax.random.split(key, self.config.ppo.rollout_steps))
+        normal = jax.lax.with_sharding_constraint(normal, batch_sharding(self.mesh, 1))
+        steps = jax.shard_map(
+            self._steps,
+            mesh=self.mesh,
+            in_specs=(P(), P(AXIS), P(None, AXIS), P()),
+            out_specs=(P(AXIS), P(None, AXIS)),
+            check_vma=False,  # MJX's solver loops are not written for shard_map's type checks
+        )
+        state, records = steps(learner, state, normal, noise)
+        return state, Rollout(**records, last_obs=state.obs)
+
+    def _steps(
+        self, learner: Learner, state: EnvState, normal: jax.Array, noise: jax.Array
+    ) -> tuple[EnvState, dict[str, Any]]:
+        """The rollout of one device's environments, given their N(0, 1) draws (T, n, A)."""
         step = jax.vmap(self.env.step)
 
-        def one(state: EnvState, k: jax.Array) -> tuple[EnvState, dict[str, Any]]:
+        def one(state: EnvState, z: jax.Array) -> tuple[EnvState, dict[str, Any]]:
             obs, chi, target = state.obs, state.chi, state.target
             mean, log_std, value = self.net.apply(learner.policy, learner.obs_norm(obs))
-            action = mean + noise * jnp.exp(log_std) * jax.random.normal(k, mean.shape)
+            action = mean + noise * jnp.exp(log_std) * z
             log_p = log_prob(mean, log_std, action)
             state, info = step(state, action)
             _, _, final_value = self.net.apply(learner.policy, learner.obs_norm(info.final_obs))
@@ -188,9 +237,7 @@ class Trainer:
             }
             return state, record
 
-        keys = jax.random.split(key, self.config.ppo.rollout_steps)
-        state, records = jax.lax.scan(one, state, keys)
-        return state, Rollout(**records, last_obs=state.obs)
+        return jax.lax.scan(one, state, normal)
 
     # -- update ---------------------------------------------------------------------------------
     def _style(
@@ -207,6 +254,13 @@ class Trainer:
         logits = self.disc.apply(learner.disc, amp_norm(batch.chi), amp_norm(batch.chi_next))
         return amp_norm, style_reward(logits, amp.style_scale), jnp.mean(logits < 0)
 
+    def _split_rows(self, tree: Any) -> Any:
+        """Rows of a minibatch split over the devices (where they split evenly), so that each
+        device computes the loss of its rows and the gradient is their mean."""
+        if self.config.ppo.minibatch_size % self.devices:
+            return tree
+        return jax.lax.with_sharding_constraint(tree, batch_sharding(self.mesh))
+
     def _ppo_epochs(
         self, learner: Learner, data: dict[str, jax.Array], key: jax.Array
     ) -> tuple[Any, Any, jax.Array, dict[str, jax.Array]]:
@@ -215,7 +269,7 @@ class Trainer:
 
         def minibatch(carry: tuple, index: jax.Array) -> tuple[tuple, dict[str, jax.Array]]:
             policy, opt, lr = carry
-            mb = jax.tree.map(lambda x: x[index], data)
+            mb = self._split_rows(jax.tree.map(lambda x: x[index], data))
 
             def loss_fn(params: Any) -> tuple[jax.Array, dict[str, jax.Array]]:
                 mean, log_std, value = self.net.apply(params, learner.obs_norm(mb["obs"]))

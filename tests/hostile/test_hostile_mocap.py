@@ -253,4 +253,6 @@ def test_fifo_skeleton_is_refused_not_waited_on(
         os.mkfifo(tmp_path / "fifo.bvh")
         with pytest.raises(MocapError, match=r"fifo\.bvh: cannot read the BVH file: a FIFO"):
             read_bvh(tmp_path / "fifo.bvh")
+        argv = ["retarget", str(tmp_path / "fifo.bvh"), "--out", str(out), "--no-balance"]
+        refused(argv, capsys, 2, r"fifo\.bvh: not a regular file or a folder")
     assert snapshot(out) == before

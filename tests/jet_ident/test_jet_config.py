@@ -21,8 +21,15 @@ def test_recipe_loads() -> None:
 
 
 def test_to_toml_round_trip(tmp_path: Path) -> None:
-    config = JetIdentConfig.from_dict({"train": {"window": 120}, "bench": {"ambient_c": [10, 30]}})
+    data = {
+        "train": {"window": 120},
+        "bench": {"ambient_c": [10, 30], "plant": "spool", "spool": {"fuel_lag_s": 0.1}},
+        "model": {"priors": ["first_order"]},
+    }
+    config = JetIdentConfig.from_dict(data)
     assert config.bench.ambient_c == (10.0, 30.0) and config.train.window == 120
+    assert config.bench.spool.fuel_lag_s == 0.1 and config.bench.spool.max_thrust_n == 230.0
+    assert config.model.priors == ("first_order",)
     (tmp_path / "c.toml").write_text(config.to_toml())
     assert JetIdentConfig.from_toml(tmp_path / "c.toml") == config
 
@@ -39,6 +46,14 @@ def test_to_toml_round_trip(tmp_path: Path) -> None:
         ({"train": {"validation_fraction": 1.0}}, "validation_fraction"),
         ({"bench": {"ambient_c": [30.0, 10.0]}}, "ambient_c"),
         ({"bench": 3}, "should be a table"),
+        ({"bench": {"plant": "p300"}}, "'plant' should be one of 'p250', 'spool'"),
+        ({"bench": {"p250": {"coeffs": [1.0, 2.0]}}}, r"\[bench.p250\]: 'coeffs' should be 13"),
+        ({"bench": {"p250": {"scales": [1, 0, 1, 1]}}}, "positive thrust and throttle scales"),
+        ({"bench": {"spool": {"idle_speed": 1.0}}}, "'idle_speed' should be finite and in"),
+        ({"bench": {"spool": {"accel_limit": [0.5, 0.0]}}}, "'accel_limit'"),
+        ({"model": {"priors": ["grey"]}}, "'priors' should be a list of second_order"),
+        ({"model": {"priors": []}}, "'priors' should be non-empty"),
+        ({"train": {"validation_blocks": 0}}, "'validation_blocks'"),
     ],
 )
 def test_bad_values_name_the_key(data: dict, message: str) -> None:

@@ -6,6 +6,8 @@ import pytest
 from motionkit.jet_ident.integrate import simulate
 from motionkit.jet_ident.p250 import (
     P250_COEFFS,
+    SCALES,
+    retimed,
     steady_throttle,
     steady_thrust,
     thrust_acceleration,
@@ -101,3 +103,29 @@ def test_rk4_substeps_agree_with_a_much_finer_integration() -> None:
     coarse = simulate(P250_COEFFS, throttle, 0.01, 40.0, substeps=2)
     fine = simulate(P250_COEFFS, throttle, 0.01, 40.0, substeps=40)
     assert np.max(np.abs(coarse[:, 0] - fine[:, 0])) < 0.02
+
+
+def test_another_normalisation_is_another_engine() -> None:
+    # Offsets and scales twice the published: the same engine at twice the thrust.
+    double = (2 * SCALES[0], 2 * SCALES[1], SCALES[2], SCALES[3])
+    throttle = np.array([0.0, 50.0, 100.0])
+    np.testing.assert_allclose(
+        steady_thrust(P250_COEFFS, throttle, double), 2 * steady_thrust(P250_COEFFS, throttle)
+    )
+    value = thrust_acceleration(P250_COEFFS, 2 * 150.0, 2 * -40.0, 80.0, double)
+    assert value == pytest.approx(2 * ACCELERATIONS[(150.0, -40.0, 80.0)], rel=1e-12)
+    np.testing.assert_allclose(
+        steady_throttle(P250_COEFFS, [120.0, 300.0], double),
+        steady_throttle(P250_COEFFS, [60.0, 150.0]),
+        atol=1e-9,
+    )
+
+
+def test_retimed_coefficients_run_the_engine_slower() -> None:
+    # speed 0.5: sample k at 0.02 s of the slow engine is sample k at 0.01 s of the published
+    slow = retimed(P250_COEFFS, 0.5)
+    assert slow[0] == pytest.approx(0.25 * P250_COEFFS[0]) and slow[12] == P250_COEFFS[12]
+    assert slow[2] == pytest.approx(0.5 * P250_COEFFS[2]) and slow[5] == P250_COEFFS[5]
+    throttle = np.repeat([20.0, 90.0, 40.0], 200)
+    fast = simulate(P250_COEFFS, throttle, 0.01, 50.0)
+    np.testing.assert_allclose(simulate(slow, throttle, 0.02, 50.0)[:, 0], fast[:, 0], atol=2e-3)

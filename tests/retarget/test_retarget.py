@@ -193,3 +193,45 @@ def test_slowdown_stretches_time_and_keeps_the_poses() -> None:
     assert np.abs(slow.joint_velocities).mean() == pytest.approx(fast / 2, rel=0.05)
     with pytest.raises(RetargetError, match="slowdown"):
         RetargetConfig(slowdown=0.0)
+
+
+@pytest.mark.parametrize("clearance", [0.0, 0.02])
+def test_a_swinging_sole_clears_the_floor(clearance: float) -> None:
+    """A foot that stands, then drags along the floor (toe-off): its sole target sits on the
+    floor in contact and rises to `clearance` above it over the release time."""
+    from motionkit.retarget.points import robot_points
+    from motionkit.retarget.targets import RobotGeometry, _sole_targets
+
+    robot = ironcub()
+    config = RetargetConfig(swing_clearance=clearance)
+    geometry = RobotGeometry(robot, robot_points(robot, config.points), "chest")
+    rate, frames = 100.0, 100
+    ankle = np.column_stack([np.linspace(0.0, 0.5, frames), np.zeros((frames, 2))])  # on the floor
+    foot = np.tile([0.12, 0.0, 0.0], (frames, 1))
+    shank = np.tile([0.0, 0.0, 0.4], (frames, 1))
+    contact = np.arange(frames) < 40
+    soles, _ = _sole_targets(ankle, foot, shank, contact, 0, geometry, config, rate)
+    corners = np.einsum("tij,cj->tci", soles[:, :3, :3], geometry.corners[0])[..., 2]
+    lowest = corners.min(axis=1) + soles[:, 2, 3]
+    window = round(config.release_time * rate)  # 20 frames
+    assert np.allclose(lowest[:40], 0.0, atol=1e-9)
+    assert np.allclose(lowest[40 + window :], clearance, atol=1e-9)
+    blend = lowest[40 : 40 + window]  # the weight of the human's height rises linearly
+    assert np.allclose(blend, clearance * (np.arange(1, window + 1) / window), atol=1e-9)
+
+
+def test_trim_keeps_the_span_of_the_motion() -> None:
+    landmarks, rate = walker(3.0)
+    config = RetargetConfig(balance=replace(RetargetConfig().balance, passes=0))
+    whole, _ = retarget(landmarks, rate, ironcub(), config)
+    part, _ = retarget(landmarks, rate, ironcub(), config, span=(1.0, 2.0))
+    assert len(part.time) == round(rate) + 1 and part.time[0] == 0.0
+    assert part.metadata.metrics["source_span_s"] == [1.0, 2.0]
+    middle = len(part.time) // 2  # the human's frame at 1.5 s (away from the filter's edges)
+    np.testing.assert_allclose(
+        part.landmarks[middle], whole.landmarks[round(rate) + middle], atol=2e-3
+    )
+    with pytest.raises(RetargetError, match="does not fit the motion"):
+        retarget(landmarks, rate, ironcub(), config, span=(2.0, 3.5))
+    with pytest.raises(RetargetError, match="trim '11_01'"):
+        RetargetConfig(trim={"11_01": (2.0, 1.0)})

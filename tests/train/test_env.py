@@ -1,24 +1,88 @@
-"""The MJX environment: jitted batch reset/step shapes, no NaN, observation layout, falls,
-time limits, waypoint hits and auto-reset."""
+"""The MJX environment on each MJX backend (JAX; MuJoCo Warp where an NVIDIA GPU and warp are
+present): jitted batch reset/step shapes, no NaN, observation layout, falls, time limits,
+waypoint hits and auto-reset; asking for warp where it is missing is a clear error."""
+
+from dataclasses import replace
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
-pytestmark = pytest.mark.slow  # compiles MJX (about a minute on a 2-core CPU)
+from motionkit.errors import TrainError
+from motionkit.train import mjx as mjx_module
+from motionkit.train.env import Env
+from motionkit.train.mjx import warp_missing
 
 BATCH = 4
+slow = pytest.mark.slow  # compiles MJX (about a minute on a 2-core CPU)
+WARP = pytest.param(
+    "warp",
+    marks=pytest.mark.skipif(
+        warp_missing() is not None, reason=f"MuJoCo Warp needs {warp_missing()}"
+    ),
+)
+
+
+@pytest.fixture(scope="module", params=["jax", WARP])
+def impl(request: pytest.FixtureRequest) -> str:
+    return request.param
 
 
 @pytest.fixture(scope="module")
-def started(env, batch_fns):
-    reset, _ = batch_fns
+def impl_env(impl: str, env, robot, tiny_config) -> Env:
+    if impl == "jax":
+        return env  # the session's (compiled once for every test module)
+    config = replace(tiny_config.env, impl=impl)
+    return Env(robot, config, tiny_config.reward, worlds=BATCH)
+
+
+@pytest.fixture(scope="module")
+def impl_fns(impl: str, impl_env: Env, batch_fns):
+    if impl == "jax":
+        return batch_fns
+    return jax.jit(jax.vmap(impl_env.reset)), jax.jit(jax.vmap(impl_env.step))
+
+
+@pytest.fixture(scope="module")
+def started(impl_fns):
+    reset, _ = impl_fns
     return reset(jax.random.split(jax.random.key(0), BATCH))
 
 
-def test_reset_shapes_and_layout(env, started) -> None:
-    assert env.obs_size == 76 and env.chi_size == 72 and env.action_size == 27
+def test_warp_where_missing_is_a_clear_error(robot, tiny_config) -> None:
+    missing = warp_missing()
+    if missing is None:
+        pytest.skip("warp and an NVIDIA GPU are present")
+    config = replace(tiny_config.env, impl="warp")
+    with pytest.raises(TrainError, match=r"^\[env\] impl = 'warp' needs ") as error:
+        Env(robot, config, tiny_config.reward)
+    assert missing in str(error.value)
+
+
+def test_warp_missing_names_what_is_missing(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(mjx_module, "_cuda_devices", lambda: [])
+    monkeypatch.setattr(mjx_module.mjx_warp, "WARP_INSTALLED", False)
+    both = warp_missing()
+    assert both.startswith("NVIDIA's warp-lang package (pip install 'motionkit[warp]') and ")
+    assert "an NVIDIA GPU with JAX's CUDA plugin (JAX sees cpu)" in both
+    monkeypatch.setattr(mjx_module, "_cuda_devices", lambda: ["cuda:0"])
+    assert warp_missing() == "NVIDIA's warp-lang package (pip install 'motionkit[warp]')"
+    monkeypatch.setattr(mjx_module.mjx_warp, "WARP_INSTALLED", True)
+    monkeypatch.setattr(mjx_module.importlib.util, "find_spec", lambda name: object())
+    assert warp_missing() is None
+    monkeypatch.setattr(mjx_module, "_cuda_devices", lambda: [])
+    assert warp_missing() == "an NVIDIA GPU with JAX's CUDA plugin (JAX sees cpu)"
+
+
+def test_impl_is_checked(tiny_config) -> None:
+    with pytest.raises(TrainError, match="'impl' should be one of 'jax', 'warp', got 'cpp'"):
+        replace(tiny_config.env, impl="cpp")
+
+
+@slow
+def test_reset_shapes_and_layout(impl_env, started) -> None:
+    assert impl_env.obs_size == 76 and impl_env.chi_size == 72 and impl_env.action_size == 27
     assert started.obs.shape == (BATCH, 76) and started.chi.shape == (BATCH, 72)
     obs = np.asarray(started.obs)
     assert np.all(np.isfinite(obs))
@@ -32,12 +96,13 @@ def test_reset_shapes_and_layout(env, started) -> None:
     assert np.all((distance >= 0.7 - 1e-4) & (distance <= 2.0 + 1e-4))
 
 
-def test_steps_without_nan(env, batch_fns, started) -> None:
-    _, step = batch_fns
+@slow
+def test_steps_without_nan(impl_env, impl_fns, started) -> None:
+    _, step = impl_fns
     state = started
     rng = np.random.default_rng(0)
     for _ in range(10):
-        action = jnp.asarray(rng.uniform(-1, 1, (BATCH, env.action_size)), jnp.float32)
+        action = jnp.asarray(rng.uniform(-1, 1, (BATCH, impl_env.action_size)), jnp.float32)
         state, info = step(state, action)
     for leaf in jax.tree.leaves((state.obs, state.chi, state.data.qpos, info)):
         assert np.all(np.isfinite(np.asarray(leaf, dtype=float)))
@@ -47,23 +112,25 @@ def test_steps_without_nan(env, batch_fns, started) -> None:
     assert np.all((np.asarray(state.thrust) >= 0) & (np.asarray(state.thrust) <= 250.0))
 
 
-def test_standing_still_is_stable(env, batch_fns, started) -> None:
-    _, step = batch_fns
+@slow
+def test_standing_still_is_stable(impl_env, impl_fns, started) -> None:
+    _, step = impl_fns
     state = started
     for _ in range(30):  # half a second at 60 Hz, the rest action: stand under PD
-        state, info = step(state, jnp.tile(env.rest_action, (BATCH, 1)))
+        state, info = step(state, jnp.tile(impl_env.rest_action, (BATCH, 1)))
     assert not np.any(np.asarray(info.done))
     np.testing.assert_allclose(np.asarray(state.data.qpos[:, 2]), 0.61, atol=0.02)
     assert np.all(np.asarray(info.feet_down)) and not np.any(np.asarray(info.airborne))
 
 
-def test_fall_time_limit_and_waypoint_hit(env, batch_fns, started) -> None:
-    _, step = batch_fns
+@slow
+def test_fall_time_limit_and_waypoint_hit(impl_env, impl_fns, started) -> None:
+    _, step = impl_fns
     qpos = started.data.qpos.at[0, 2].set(0.3)  # env 0: base too low -> a fall
-    steps = started.steps.at[1].set(env.config.max_steps - 1)  # env 1: last step
+    steps = started.steps.at[1].set(impl_env.config.max_steps - 1)  # env 1: last step
     target = started.target.at[2].set(started.data.qpos[2, :3])  # env 2: on its waypoint
     state = started.replace(data=started.data.replace(qpos=qpos), steps=steps, target=target)
-    after, info = step(state, jnp.tile(env.rest_action, (BATCH, 1)))
+    after, info = step(state, jnp.tile(impl_env.rest_action, (BATCH, 1)))
     done, truncated, hit = map(np.asarray, (info.done, info.truncated, info.hit))
     np.testing.assert_array_equal(done, [True, True, False, False])
     np.testing.assert_array_equal(truncated, [False, True, False, False])
@@ -71,7 +138,7 @@ def test_fall_time_limit_and_waypoint_hit(env, batch_fns, started) -> None:
     # ended episodes start again (auto-reset); the final observation is the ended one's
     np.testing.assert_array_equal(np.asarray(after.steps), [0, 0, 1, 1])
     assert float(info.final_obs[0, -4]) < 0.4 and float(after.obs[0, -4]) > 0.6
-    assert int(info.episode_steps[1]) == env.config.max_steps
+    assert int(info.episode_steps[1]) == impl_env.config.max_steps
     # the hit counts and a new waypoint 0.7-2.0 m from the reached one appears
     assert int(after.reached[2]) == 1 and int(info.episode_reached[2]) == 1
     jump = np.linalg.norm(np.asarray(after.target[2] - target[2]))
