@@ -12,6 +12,7 @@ EXTRAS: dict[str, tuple[str, ...]] = {
     "trajopt": ("casadi", "adam.casadi"),
     "train": ("jax", "flax", "optax", "mujoco", "mujoco.mjx"),
     "viewer": ("viser", "trimesh"),
+    "cluster": ("ray",),
 }
 
 

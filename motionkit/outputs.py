@@ -148,9 +148,55 @@ def claimed_out(folder: Path, names: Iterable[str], error: type[MotionkitError])
 
 
 def record_names(folder: Path, names: Iterable[str]) -> None:
-    """Write the manifest of `folder`: the top-level names motionkit wrote there."""
+    """Write the manifest of `folder`: the top-level names motionkit wrote there (the keys of
+    those still listed are kept)."""
     files = sorted(set(names) - {MANIFEST})
-    write_text_atomic(Path(folder) / MANIFEST, json.dumps({"files": files}, indent=1) + "\n")
+    keys = {n: k for n, k in recorded_keys(folder).items() if n in files}
+    _write_manifest(Path(folder), files, keys)
+
+
+def _write_manifest(folder: Path, files: list[str], keys: dict[str, str]) -> None:
+    data: dict[str, Any] = {"files": files}
+    if keys:
+        data["keys"] = dict(sorted(keys.items()))
+    write_text_atomic(folder / MANIFEST, json.dumps(data, indent=1) + "\n")
+
+
+# A batch (clips, trajopt targets) records beside each name the key of the task that wrote it:
+# the hash of what the task read, so that `--resume` keeps an output whose key is unchanged.
+def recorded_keys(folder: Path) -> dict[str, str]:
+    """name -> the key of the task that wrote it, as the manifest of `folder` says."""
+    try:
+        data = json.loads((Path(folder) / MANIFEST).read_text())
+    except (OSError, ValueError):
+        return {}
+    keys = data.get("keys") if isinstance(data, dict) else None
+    if not isinstance(keys, dict):
+        return {}
+    return {n: k for n, k in keys.items() if isinstance(n, str) and isinstance(k, str)}
+
+
+def up_to_date(folder: Path, names: Iterable[str], key: str) -> bool:
+    """Whether every one of `names` is in `folder`, listed in its manifest with `key`."""
+    listed, keys = written_names(folder) or set(), recorded_keys(folder)
+    return all(n in listed and keys.get(n) == key and (Path(folder) / n).is_file() for n in names)
+
+
+def write_files(folder: Path, files: dict[str, bytes], key: str = "") -> None:
+    """Write `files` (name -> bytes, in order, each atomically) into `folder`, whose manifest
+    lists them already (`claim_out`); then record `key` for them (none if empty). A name is
+    forgotten before it is rewritten, so that an interrupt never leaves a new file with an
+    old key or an old file with a new key."""
+    folder = Path(folder)
+    listed, keys = written_names(folder) or set(), recorded_keys(folder)
+    if any(n in keys for n in files):
+        _write_manifest(folder, sorted(listed), {n: k for n, k in keys.items() if n not in files})
+    for name, data in files.items():
+        with atomic_output(folder / name) as stream:
+            stream.write(data)
+    if key:
+        keys = recorded_keys(folder) | dict.fromkeys(files, key)
+        _write_manifest(folder, sorted(written_names(folder) or set()), keys)
 
 
 def remove_temporaries(folder: Path, pids: Iterable[int]) -> None:

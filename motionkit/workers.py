@@ -8,9 +8,10 @@ from __future__ import annotations
 import contextlib
 import multiprocessing
 import signal
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+from typing import Any
 
 from motionkit.outputs import remove_temporaries
 
@@ -18,10 +19,19 @@ GRACE_S = 2.0  # a terminated worker that has not ended by then is killed
 
 
 @contextlib.contextmanager
-def worker_pool(jobs: int, out: Path) -> Iterator[ProcessPoolExecutor]:
-    """A pool of `jobs` spawned processes writing into `out`; stopped at once on an exception."""
+def worker_pool(
+    jobs: int,
+    out: Path | None = None,
+    initializer: Callable[..., None] | None = None,
+    initargs: tuple[Any, ...] = (),
+) -> Iterator[ProcessPoolExecutor]:
+    """A pool of `jobs` spawned processes (writing into `out`, if they write); stopped at once
+    on an exception. `initializer(*initargs)` runs in each worker as it starts, and must ignore
+    SIGINT as the default one does."""
     spawn = multiprocessing.get_context("spawn")
-    pool = ProcessPoolExecutor(max(1, jobs), mp_context=spawn, initializer=_ignore_sigint)
+    pool = ProcessPoolExecutor(
+        max(1, jobs), mp_context=spawn, initializer=initializer or _ignore_sigint, initargs=initargs
+    )
     try:
         yield pool
     except BaseException:
@@ -30,7 +40,7 @@ def worker_pool(jobs: int, out: Path) -> Iterator[ProcessPoolExecutor]:
     pool.shutdown()
 
 
-def stop_workers(pool: ProcessPoolExecutor, out: Path) -> None:
+def stop_workers(pool: ProcessPoolExecutor, out: Path | None = None) -> None:
     """Cancel what has not started, end the workers now, and remove their temporaries; a second
     Ctrl-C or SIGTERM meanwhile waits until this is done."""
     signals = {signal.SIGINT, signal.SIGTERM}
@@ -45,7 +55,8 @@ def stop_workers(pool: ProcessPoolExecutor, out: Path) -> None:
             if process.is_alive():
                 process.kill()
                 process.join()
-        remove_temporaries(out, (p.pid for p in processes if p.pid is not None))
+        if out is not None:
+            remove_temporaries(out, (p.pid for p in processes if p.pid is not None))
     finally:
         signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
 

@@ -19,7 +19,7 @@ def test_require_names_the_missing_module_and_the_extra(monkeypatch: pytest.Monk
         "pip install 'motionkit[trajopt]'"
     )
     require("trajopt", "trajectory optimisation", TrajoptError, ("numpy",))  # only these
-    assert set(EXTRAS) == {"ik", "trajopt", "train", "viewer"}
+    assert set(EXTRAS) == {"ik", "trajopt", "train", "viewer", "cluster"}
 
 
 def test_trajopt_without_its_extra_exits_with_one_line(

@@ -6,7 +6,7 @@ write("copy.mcap", trajectory, robot)   # atomic; /motion, /tf, metadata, URDF a
 """
 
 from motionkit.dataset.amp import AmpPairs, amp_features, amp_pairs, feature_names, resample
-from motionkit.dataset.clip import corner_names, read, read_metadata, write
+from motionkit.dataset.clip import corner_names, encode, read, read_metadata, write
 from motionkit.dataset.collection import MotionDataset
 from motionkit.dataset.trajectory import Metadata, Source, Trajectory
 
@@ -19,6 +19,7 @@ __all__ = [
     "amp_features",
     "amp_pairs",
     "corner_names",
+    "encode",
     "feature_names",
     "read",
     "read_metadata",

@@ -76,6 +76,14 @@ def write(path: Path | str, trajectory: Trajectory, robot: Robot, *, tf_rate: fl
     return path
 
 
+def encode(trajectory: Trajectory, robot: Robot, *, tf_rate: float = 15.0) -> bytes:
+    """The bytes `write` puts in a clip file (for a worker that hands its clip to the driver)."""
+    check_against_robot(trajectory, robot)
+    buffer = BytesIO()
+    _write_mcap(buffer, trajectory, robot, tf_rate)
+    return buffer.getvalue()
+
+
 def corner_names(robot: Robot) -> tuple[str, ...]:
     """The robot's sole corners, feet in spec order: the rows of `contact_forces`."""
     return tuple(corner for foot in robot.spec.feet for corner in foot.corners)

@@ -5,56 +5,21 @@ it succeeds."""
 
 from __future__ import annotations
 
-import hashlib
 import json
 import shutil
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
-from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+from motionkit.digests import digest, file_digest, source_digest, versions
 from motionkit.errors import PipelineError
 from motionkit.outputs import foreign_entries, record_names, write_text_atomic
 
-PACKAGE = Path(__file__).resolve().parent.parent  # the motionkit package folder
+__all__ = ["STAGING", "Outcome", "digest", "file_digest", "run_cached", "source_digest", "versions"]
+
 STAGING = ".staging"  # OUT/.staging/NAME: a stage's folder while it runs
-
-
-def digest(*parts: Any) -> str:
-    """A short hash of JSON-serialisable parts (paths and other objects as their str)."""
-    text = json.dumps(parts, sort_keys=True, default=str)
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
-
-
-def file_digest(path: Path) -> str:
-    hasher = hashlib.sha256()
-    with open(path, "rb") as stream:
-        for block in iter(lambda: stream.read(1 << 20), b""):
-            hasher.update(block)
-    return hasher.hexdigest()
-
-
-def source_digest(packages: Iterable[str]) -> str:
-    """The hash of motionkit's source files in these subpackages (code changes rerun a stage)."""
-    hasher = hashlib.sha256()
-    for name in sorted(packages):
-        for path in sorted((PACKAGE / name).rglob("*")):
-            if path.suffix in (".py", ".toml"):
-                hasher.update(str(path.relative_to(PACKAGE)).encode())
-                hasher.update(path.read_bytes())
-    return hasher.hexdigest()[:16]
-
-
-def versions(*distributions: str) -> dict[str, str]:
-    found = {}
-    for name in distributions:
-        try:
-            found[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            found[name] = "absent"
-    return found
 
 
 @dataclass(frozen=True)

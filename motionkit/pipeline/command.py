@@ -8,6 +8,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from motionkit.errors import PipelineError
+from motionkit.executors import cluster_address
 from motionkit.extras import require
 from motionkit.pipeline.config import PipelineConfig
 from motionkit.pipeline.runner import STAGE_NAMES, run_pipeline
@@ -33,6 +34,8 @@ when what it reads changed: input files, its resolved recipe, the robot, the sta
 motionkit's code for it or its main libraries (the hash is its key, kept in OUT/.pipeline/).
 A stage runs in OUT/.staging/ and replaces its folder only when it succeeds: a failing stage
 keeps the previous output and the pipeline stops with status 2 (130 on Ctrl-C, 143 on SIGTERM).
+--cluster ADDRESS runs the retarget clips and the flight library on a Ray cluster (same outputs,
+same keys: a stage cached from a local run stays cached).
 Folders and files in OUT that motionkit did not write are never replaced (the run is refused).
 OUT/pipeline_summary.json holds the table printed at the end.
 
@@ -71,6 +74,13 @@ def add_commands(
     )
     parser.add_argument("--force", action="store_true", help="run every stage, cached or not")
     parser.add_argument(
+        "--cluster",
+        type=cluster_address,
+        metavar="ADDRESS",
+        help="run the retarget clips and the trajopt library on a Ray cluster: auto, HOST:PORT "
+        "or ray://HOST:PORT (the [cluster] extra)",
+    )
+    parser.add_argument(
         "--until",
         choices=STAGE_NAMES,
         help="stop after this stage (the later stages are neither run nor checked)",
@@ -87,6 +97,8 @@ def _require_extras() -> None:
 def _run(args: argparse.Namespace) -> int:
     config = PipelineConfig.from_toml(args.config)
     _require_extras()
+    if args.cluster:
+        require("cluster", "--cluster", PipelineError)
     robot = load_robot(args.urdf, args.spec)
     if args.full:
         _warn_without_gpu()
@@ -100,6 +112,7 @@ def _run(args: argparse.Namespace) -> int:
         force=args.force,
         fetch=args.fetch,
         until=args.until,
+        cluster=args.cluster,
     )
     if args.until and args.until != "train":
         return 0

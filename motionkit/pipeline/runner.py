@@ -29,12 +29,14 @@ def run_pipeline(
     force: bool = False,
     fetch: bool = False,
     until: str | None = None,
+    cluster: str | None = None,
 ) -> list[Outcome]:
-    """Run every stage up to `until` (default: all) into its folder of `out` for `robot`;
+    """Run every stage up to `until` (default: all) into its folder of `out` for `robot` (the
+    retarget clips and the trajopt library on the Ray cluster at `cluster`, if given);
     PipelineError naming the stage when one fails (its previous output is kept)."""
     if until is not None and until not in STAGE_NAMES:
         raise PipelineError(f"unknown stage '{until}'; the stages: {', '.join(STAGE_NAMES)}")
-    ctx = Context(config, Path(out).resolve(), robot, mocap_dir, full, force, fetch)
+    ctx = Context(config, Path(out).resolve(), robot, mocap_dir, full, force, fetch, cluster)
     claim_out(ctx.out, OUT_NAMES, PipelineError)
     start = time.perf_counter()
     outcomes = []

@@ -10,16 +10,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from motionkit.digests import digest, file_digest, source_digest, versions
 from motionkit.errors import PipelineError
 from motionkit.outputs import write_text_atomic
-from motionkit.pipeline.cache import (
-    Outcome,
-    digest,
-    file_digest,
-    run_cached,
-    source_digest,
-    versions,
-)
+from motionkit.pipeline.cache import Outcome, run_cached
 from motionkit.pipeline.config import PipelineConfig
 from motionkit.robot import Robot
 
@@ -35,6 +29,7 @@ class Context:
     full: bool = False
     force: bool = False
     fetch: bool = False  # retarget the fetch recipe's CMU clips (downloaded) instead
+    cluster: str | None = None  # a Ray cluster for the retarget clips and the trajopt library
     keys: dict[str, str] = field(default_factory=dict)  # stage -> key, as the stages run
 
     @property
@@ -88,7 +83,7 @@ def retarget(ctx: Context) -> Outcome:
 
     def work(folder: Path) -> str:
         jobs = ctx.config.retarget.jobs or os.cpu_count() or 1
-        results = run_retarget(clips, folder, config, jobs, ctx.robot)
+        results = run_retarget(clips, folder, config, jobs, ctx.robot, ctx.cluster)
         failed = [r for r in results if r.output is None]
         if failed:
             raise PipelineError(
@@ -132,7 +127,8 @@ def trajopt(ctx: Context) -> Outcome:
         made = [f"{len(configs)} flight(s) ({', '.join(configs)})"] if configs else []
         if library is not None:
             jobs = stage.jobs or os.cpu_count() or 1
-            outcomes = solve_library(library, folder, ctx.robot, jobs, stage.replay, quiet=True)
+            outcomes = solve_library(library, folder, ctx.robot, jobs, stage.replay, quiet=True,
+                                     cluster=ctx.cluster)  # fmt: skip
             failed = [f"{name}: {text}" for name, ok, text, _ in outcomes if not ok]
             if failed:
                 raise PipelineError(

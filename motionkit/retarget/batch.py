@@ -8,18 +8,18 @@ import re
 import sys
 import time as clock
 from collections.abc import Callable, Iterable
-from concurrent.futures import as_completed
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from motionkit.dataset import Source
+from motionkit.digests import digest, file_digest, source_digest, versions
 from motionkit.errors import MotionkitError, RetargetError
-from motionkit.outputs import claimed_out, inside, write_text_atomic
+from motionkit.executors import Executor, open_executor
+from motionkit.outputs import claimed_out, inside, up_to_date, write_files, write_text_atomic
 from motionkit.progress import LineProgress
 from motionkit.retarget.config import RetargetConfig
 from motionkit.robot import Robot, ironcub
-from motionkit.workers import worker_pool
 
 MOCAP_SUFFIXES = (".bvh", ".amc")
 SUMMARY = "retarget_summary.json"
@@ -58,6 +58,7 @@ class ClipResult:
     stages: dict[str, float] = field(default_factory=dict)  # seconds per stage
     metrics: dict[str, float | int | str] = field(default_factory=dict)
     error: str = ""
+    resumed: bool = False  # kept from an earlier run (--resume): its output was up to date
 
     def problems(self) -> list[str]:
         """The quality figures beyond QUALITY (empty for a clean clip)."""
@@ -103,20 +104,18 @@ def _file_input(path: Path) -> ClipInput:
     return ClipInput(path, None, match[1] if match else "")
 
 
-def retarget_clip(
+def encode_clip(
     clip: ClipInput,
-    out: Path,
     config: RetargetConfig,
-    robot: Robot | None = None,
+    robot: Robot,
     progress: Callable[[int, int], None] | None = None,
-) -> ClipResult:
-    """Read, retarget and write one clip for `robot` (default iRonCub) as `out/<name>.mcap`;
-    errors become the result's `error` (nothing is written for a failed clip)."""
-    from motionkit.dataset import write
+) -> tuple[ClipResult, bytes]:
+    """Read and retarget one clip for `robot`: its result (no output yet) and the bytes of its
+    MCAP file; errors become the result's `error` (and no bytes)."""
+    from motionkit.dataset import encode
     from motionkit.mocap import load_mocap
     from motionkit.retarget.core import CMU_ACKNOWLEDGEMENT, CMU_LICENCE, retarget
 
-    robot = robot or ironcub()
     began = clock.perf_counter()
     try:
         motion = load_mocap(clip.path, asf=clip.asf)
@@ -138,25 +137,64 @@ def retarget_clip(
             motion.landmarks(), motion.rate, robot, config, source, step, span
         )
         solved = clock.perf_counter()
-        path = write(inside(out, f"{clip.name}.mcap", RetargetError), trajectory, robot)
-        written = clock.perf_counter()
+        data = encode(trajectory, robot)
+        encoded = clock.perf_counter()
     except MotionkitError as exc:
-        return ClipResult(clip.name, str(clip.path), None, error=str(exc))
+        return ClipResult(clip.name, str(clip.path), None, error=str(exc)), b""
     stages = {
         "read": read - began,
         "targets": timings.targets,
         "ik": timings.ik,
         "metrics": timings.metrics,
-        "write": written - solved,
+        "write": encoded - solved,
     }
-    return ClipResult(
+    metrics = dict(trajectory.metadata.metrics)
+    result = ClipResult(clip.name, str(clip.path), None, frames, encoded - began, stages, metrics)
+    return result, data
+
+
+def retarget_clip(
+    clip: ClipInput,
+    out: Path,
+    config: RetargetConfig,
+    robot: Robot | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> ClipResult:
+    """Read, retarget and write one clip for `robot` (default iRonCub) as `out/<name>.mcap`;
+    errors become the result's `error` (nothing is written for a failed clip)."""
+    try:
+        inside(out, f"{clip.name}.mcap", RetargetError)
+    except MotionkitError as exc:
+        return ClipResult(clip.name, str(clip.path), None, error=str(exc))
+    result, data = encode_clip(clip, config, robot or ironcub(), progress)
+    return result if result.error else _write(result, out, data)
+
+
+def _write(result: ClipResult, out: Path, data: bytes, key: str = "") -> ClipResult:
+    """`data` written as OUT/<name>.mcap (its task `key` recorded); the result with its output
+    and the write in its times."""
+    began = clock.perf_counter()
+    write_files(out, {f"{result.name}.mcap": data}, key)
+    seconds = clock.perf_counter() - began
+    stages = result.stages | {"write": result.stages.get("write", 0.0) + seconds}
+    path = Path(out) / f"{result.name}.mcap"
+    return replace(result, output=path, seconds=result.seconds + seconds, stages=stages)
+
+
+def clip_key(clip: ClipInput, config: RetargetConfig, robot: Robot) -> str:
+    """The hash of everything a clip's output depends on (its input files, the config, the
+    robot, the code and the IK libraries): an output recorded with it is up to date."""
+    asf = file_digest(clip.asf) if clip.asf else None
+    return digest(
+        "retarget clip",
         clip.name,
-        str(clip.path),
-        path,
-        frames,
-        written - began,
-        stages,
-        dict(trajectory.metadata.metrics),
+        clip.cmu_clip,
+        file_digest(clip.path),
+        asf,
+        replace(config, clips=()).to_dict(),
+        robot.model_hash,
+        source_digest(["retarget", "mocap", "dataset", "robot"]),
+        versions("placo", "pin"),
     )
 
 
@@ -167,32 +205,76 @@ def retarget_all(
     jobs: int = 1,
     robot: Robot | None = None,
     report: Callable[[ClipResult, int, int], None] | None = None,
+    *,
+    cluster: str | None = None,
+    resume: bool = False,
+    executor: Executor | None = None,
 ) -> list[ClipResult]:
-    """Retarget every clip for `robot` (default iRonCub; in `jobs` processes when > 1);
-    results in input order."""
+    """Retarget every clip for `robot` (default iRonCub) into `out`: in `jobs` processes when
+    > 1, on the Ray cluster at `cluster`, or on `executor`; the workers return the clips and
+    this process writes them. With `resume`, a clip whose output is up to date (`clip_key`) is
+    kept. Results in input order."""
     robot = robot or ironcub()
     _check_names(clips)
+    if executor is None:
+        inline = jobs <= 1 or len(clips) == 1
+        with open_executor(min(jobs, len(clips)), cluster, RetargetError, inline) as executor:
+            return retarget_all(clips, out, config, jobs, robot, report, resume=resume,
+                                executor=executor)  # fmt: skip
+    keys = [clip_key(clip, config, robot) for clip in clips]
     results: dict[int, ClipResult] = {}
-    if jobs <= 1 or len(clips) == 1:
-        for i, clip in enumerate(clips):
-            bar = _FrameBar(clip.name) if report is not None else None
-            results[i] = retarget_clip(clip, out, config, robot, bar)
-            if bar is not None:
-                bar.close()
-            if report is not None:
-                report(results[i], len(results), len(clips))
-    else:
-        with worker_pool(jobs, out) as pool:
-            futures = {
-                pool.submit(retarget_clip, clip, out, config, robot): i
-                for i, clip in enumerate(clips)
-            }
-            for future in as_completed(futures):
-                i = futures[future]
-                results[i] = future.result()
-                if report is not None:
-                    report(results[i], len(results), len(clips))
+
+    def finish(i: int, result: ClipResult) -> None:
+        results[i] = result
+        if report is not None:
+            report(result, len(results), len(clips))
+
+    todo = []
+    for i, clip in enumerate(clips):
+        kept = _kept(clip, out, keys[i]) if resume else None
+        if kept is None:
+            todo.append(i)
+        else:
+            finish(i, kept)
+    shared = (config, robot, executor.in_process and report is not None)
+    names = [clips[i].name for i in todo]
+    for done in executor.run(_retarget_task, [clips[i] for i in todo], names, shared):
+        i = todo[done.index]
+        if done.value is None:
+            finish(i, ClipResult(clips[i].name, str(clips[i].path), None, error=done.lost))
+            continue
+        result, data = done.value
+        finish(i, result if result.error else _write(result, out, data, keys[i]))
     return [results[i] for i in range(len(clips))]
+
+
+def _retarget_task(
+    clip: ClipInput, shared: tuple[RetargetConfig, Robot, bool]
+) -> tuple[ClipResult, bytes]:
+    """One clip in a worker (or here, with a frame progress line when the flag says)."""
+    config, robot, bar = shared
+    progress = _FrameBar(clip.name) if bar else None
+    try:
+        return encode_clip(clip, config, robot, progress)
+    finally:
+        if progress is not None:
+            progress.close()
+
+
+def _kept(clip: ClipInput, out: Path, key: str) -> ClipResult | None:
+    """The result of a clip whose output in `out` is up to date (from its metadata), or None."""
+    from motionkit.dataset import read_metadata
+
+    name = f"{clip.name}.mcap"
+    if not up_to_date(out, [name], key):
+        return None
+    try:
+        metadata, record = read_metadata(Path(out) / name)
+    except MotionkitError:
+        return None  # unreadable: made again
+    frames = int(record["frames"])
+    return ClipResult(clip.name, str(clip.path), Path(out) / name, frames,
+                      metrics=dict(metadata.metrics), resumed=True)  # fmt: skip
 
 
 def _check_names(clips: list[ClipInput]) -> None:
@@ -223,23 +305,34 @@ def run_retarget(
     config: RetargetConfig,
     jobs: int = 1,
     robot: Robot | None = None,
+    cluster: str | None = None,
+    resume: bool = False,
 ) -> list[ClipResult]:
-    """Retarget `clips` into `out` for `robot` (default iRonCub) with progress lines, the
-    quality table and OUT/retarget_summary.json; returns every clip's result (failed ones have
-    no output). A folder holding files of those names that motionkit did not write is refused."""
+    """Retarget `clips` into `out` for `robot` (default iRonCub; in `jobs` processes, or on the
+    Ray cluster at `cluster`) with progress lines, the quality table and
+    OUT/retarget_summary.json; returns every clip's result (failed ones have no output). With
+    `resume`, clips whose outputs are up to date are kept. A folder holding files of those
+    names that motionkit did not write is refused; an unreachable cluster writes nothing."""
     _check_names(clips)
+    robot = robot or ironcub()
     unused = sorted(set(config.trim) - {c.name for c in clips})
     if unused:
         print(f"note: trim names no clip among the inputs: {', '.join(unused)}")
     names = [f"{c.name}.mcap" for c in clips] + [SUMMARY]
-    print(f"retargeting {len(clips)} clip(s) into {out} with {min(jobs, len(clips))} job(s)")
-    with claimed_out(out, names, RetargetError):
-        results = retarget_all(clips, out, config, jobs, robot, report=_report_clip)
-        done = [r for r in results if r.output is not None]
-        if done:
-            summary = {"config": config.to_dict(), "clips": [_result_json(r) for r in results]}
-            write_text_atomic(out / SUMMARY, json.dumps(summary, indent=2))
+    inline = jobs <= 1 or len(clips) == 1
+    with open_executor(min(jobs, len(clips)), cluster, RetargetError, inline) as executor:
+        print(f"retargeting {len(clips)} clip(s) into {out} with {executor.where}", flush=True)
+        with claimed_out(out, names, RetargetError):
+            results = retarget_all(clips, out, config, jobs, robot, report=_report_clip,
+                                   resume=resume, executor=executor)  # fmt: skip
+            done = [r for r in results if r.output is not None]
+            if done:
+                summary = {"config": config.to_dict(), "clips": [_result_json(r) for r in results]}
+                write_text_atomic(out / SUMMARY, json.dumps(summary, indent=2))
     _print_table(results)
+    kept = sum(r.resumed for r in results)
+    if kept:
+        print(f"{kept} of {len(results)} clip(s) up to date and kept (--resume)")
     failed = len(results) - len(done)
     if failed:
         print(f"{failed} of {len(results)} clip(s) failed; nothing written for them")
@@ -249,6 +342,8 @@ def run_retarget(
 def _report_clip(result: ClipResult, done: int, total: int) -> None:
     if result.output is None:
         print(f"[{done}/{total}] {result.name}: failed: {result.error}", file=sys.stderr)
+    elif result.resumed:
+        print(f"[{done}/{total}] {result.name}: up to date, kept -> {result.output}", flush=True)
     else:
         rate = result.frames / result.seconds if result.seconds else 0.0
         print(
@@ -294,4 +389,5 @@ def _result_json(result: ClipResult) -> dict[str, Any]:
         "stages_s": result.stages,
         "metrics": result.metrics,
         "error": result.error,
+        "resumed": result.resumed,
     }

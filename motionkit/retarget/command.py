@@ -9,6 +9,8 @@ from dataclasses import replace
 from pathlib import Path
 
 from motionkit.errors import RetargetError
+from motionkit.executors import add_batch_options
+from motionkit.extras import require
 from motionkit.outputs import check_out
 from motionkit.recipes import argument
 from motionkit.retarget.batch import resolve_inputs, run_retarget
@@ -26,7 +28,9 @@ Each clip becomes DIR/<name>.mcap with the resolved config and its quality metri
 metadata; DIR/retarget_summary.json holds every clip's metrics and stage times. A clip that
 fails writes nothing and makes the exit status 1. The summary marks figures beyond those of a
 clean walk: foot slide p95 > 1 cm/s, penetration > 2 mm, any limit violation, mean foot error
-> 3 cm.
+> 3 cm. --cluster ADDRESS runs the clips on a Ray cluster (the [cluster] extra) instead of local
+processes; this process writes every clip. --resume keeps the clips whose output is up to date
+(same input files, config, robot and code), so a sweep that was stopped does only the rest.
 
 The balance filter ([balance] in a recipe; --no-balance skips it) then shifts the base so that
 the centre of pressure the motion needs stays inside the feet's support, and solves the IK
@@ -55,6 +59,7 @@ def add_commands(
     retarget.add_argument(
         "--jobs", type=int, default=1, help="parallel processes (default 1; 0 = one per CPU)"
     )
+    add_batch_options(retarget, "clips")
     retarget.add_argument("--kind", help="dataset label of the outputs (default: the config's)")
     retarget.add_argument(
         "--no-balance",
@@ -98,11 +103,13 @@ def _retarget(args: argparse.Namespace) -> int:
         config = replace(config, balance=replace(config.balance, passes=0))
     if args.jobs < 0:
         raise RetargetError(f"--jobs must be 0 (one per CPU) or more, got {args.jobs}")
+    if args.cluster:
+        require("cluster", "--cluster", RetargetError)  # before any download
     jobs = args.jobs or os.cpu_count() or 1
     check_out(args.out, [], RetargetError)  # before any download
     base = args.config.parent if args.config else Path.cwd()
     recipe = [str(base / c) if (base / c).exists() else c for c in config.clips]
     clips = resolve_inputs([*recipe, *args.inputs])
     robot = load_robot(args.urdf, args.spec)
-    results = run_retarget(clips, args.out, config, jobs, robot)
+    results = run_retarget(clips, args.out, config, jobs, robot, args.cluster, args.resume)
     return 1 if any(r.output is None for r in results) else 0

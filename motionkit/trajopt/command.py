@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from motionkit.errors import TrajoptError
+from motionkit.executors import add_batch_options
 from motionkit.extras import require
 from motionkit.recipes import argument
 from motionkit.robot import load_robot
@@ -34,7 +35,9 @@ iRonCub, whose root link x axis points backwards). Each solution is checked (res
 complementarity, target within 1 cm, thrust limits, MuJoCo replay open loop and stabilised by base
 feedback through the jets, which must track the plan within [replay] max_base_error); a request that
 cannot be solved exits with status 1 and writes nothing. --library FILE solves every clip a flight
-library names (the built-in one: --library library)."""
+library names (the built-in one: --library library). With --grid or --library, --cluster ADDRESS
+solves on a Ray cluster (the [cluster] extra; the derivatives are compiled here once and sent to
+the workers, this process writes the files) and --resume keeps the clips that are up to date."""
 
 
 def add_commands(
@@ -74,6 +77,7 @@ def add_commands(
     )
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
                         help="parallel processes for --grid and --library")  # fmt: skip
+    add_batch_options(parser, "--grid and --library solves")
     robot_source(parser)
     parser.set_defaults(handler=_run)
 
@@ -97,6 +101,8 @@ def _config(args: argparse.Namespace) -> TrajoptConfig:
 
 def _run(args: argparse.Namespace) -> int | None:
     require("trajopt", "motionkit trajopt", TrajoptError)  # before solve.py imports casadi
+    if args.cluster:
+        require("cluster", "--cluster", TrajoptError)
     if args.library is not None:
         return _run_library(args)
     if args.scenario is None:
@@ -104,6 +110,8 @@ def _run(args: argparse.Namespace) -> int | None:
     config = _config(args)
     robot = load_robot(args.urdf, args.spec)
     if args.grid is None:
+        if args.cluster or args.resume:
+            raise TrajoptError("--cluster and --resume apply to --grid and --library")
         name = args.name or clip_stem(config)
         check_clips(args.out, [name])  # an --out it cannot write is exit 2, before the solve
         try:
@@ -119,7 +127,8 @@ def _run(args: argparse.Namespace) -> int | None:
     except ValueError as exc:
         raise TrajoptError(f"--grid: expected comma-separated numbers ({exc})") from exc
     targets = list(itertools.product(*axes))
-    outcomes = solve_grid(config, targets, args.out, robot, args.jobs, not args.no_replay)
+    outcomes = solve_grid(config, targets, args.out, robot, args.jobs, not args.no_replay,
+                          args.cluster, args.resume)  # fmt: skip
     failed = sum(not ok for _, ok, _, _ in outcomes)
     print(f"{len(targets) - failed} of {len(targets)} targets solved; clips in {args.out}")
     return 1 if failed else None
@@ -134,9 +143,8 @@ def _run_library(args: argparse.Namespace) -> int | None:
     if clashing:
         raise TrajoptError(f"--library names its own scenarios and targets: drop {clashing}")
     robot = load_robot(args.urdf, args.spec)
-    outcomes = solve_library(
-        args.library, args.out, robot, args.jobs, not args.no_replay, args.quiet
-    )
-    print(library_summary(outcomes, clock.perf_counter() - start, args.jobs))
+    outcomes = solve_library(args.library, args.out, robot, args.jobs, not args.no_replay,
+                             args.quiet, args.cluster, args.resume)  # fmt: skip
+    print(library_summary(outcomes, clock.perf_counter() - start, args.jobs, args.cluster))
     print(f"clips in {args.out}")
     return 1 if any(not ok for _, ok, _, _ in outcomes) else None

@@ -28,6 +28,7 @@ import casadi as cs
 
 from motionkit.robot.model import cache_dir
 
+LOADED: list[Path] = []  # the libraries this process loaded, in order (a driver ships them)
 # -march=native on x86-64, where GCC and Clang both take it; plain -O1 elsewhere
 DEFAULT_FLAGS = "-O1 -march=native" if platform.machine() in ("x86_64", "AMD64") else "-O1"
 
@@ -110,6 +111,7 @@ def compile_groups(
             log(f"compiling the problem's derivatives to C, once per robot (1-2 min): {names}")
         with ThreadPoolExecutor(max_workers=len(missing)) as pool:
             list(pool.map(lambda item: _build(cc, flags, *item), missing))
+    LOADED.extend(libraries)
     return [
         # finite differences only so that CasADi's wrapper can build (never call) derivatives
         [
@@ -118,3 +120,30 @@ def compile_groups(
         ]
         for library in libraries
     ]
+
+
+def export_libraries(libraries: Sequence[Path]) -> dict[str, bytes]:
+    """The files of compiled `libraries` (each one's function names, then the library), for a
+    worker whose cache does not hold them (`install_libraries`)."""
+    files = {}
+    for library in dict.fromkeys(libraries):
+        for path in (_names_file(library), library):
+            files[path.name] = path.read_bytes()
+    return files
+
+
+def install_libraries(files: dict[str, bytes]) -> None:
+    """Put the exported library files this process's cache lacks into it (each atomically, the
+    names before their library, so that a library found is whole and usable)."""
+    if not files:
+        return
+    folder = cache_dir() / "trajopt_compiled"
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, data in files.items():
+        path = folder / name
+        if path.exists():
+            continue
+        with tempfile.NamedTemporaryFile(dir=folder, delete=False) as stream:
+            stream.write(data)
+        os.chmod(stream.name, 0o755 if path.suffix == ".so" else 0o644)
+        os.replace(stream.name, path)

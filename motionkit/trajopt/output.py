@@ -12,9 +12,9 @@ import numpy as np
 from scipy.interpolate import PchipInterpolator
 from scipy.spatial.transform import RotationSpline
 
-from motionkit.dataset import Metadata, Source, Trajectory, corner_names, write
+from motionkit.dataset import Metadata, Source, Trajectory, corner_names, encode
 from motionkit.dataset.physics import PhysicsConfig, check_physics
-from motionkit.outputs import atomic_output, write_text_atomic
+from motionkit.outputs import write_files
 from motionkit.robot import Robot
 from motionkit.robot.geometry import from_rotation, to_rotation
 from motionkit.trajopt.solve import Solution
@@ -132,14 +132,23 @@ def write_outputs(
     """`name`.mcap (the clip), `name`.knots.npz (every knot block [SI], dt, time) and
     `name`.config.json (the resolved config and the figures); each written atomically, the clip
     last."""
-    folder = Path(folder)
+    write_files(Path(folder), encode_outputs(name, solution, robot, metrics))
+    return Path(folder) / f"{name}.mcap"
+
+
+def encode_outputs(
+    name: str, solution: Solution, robot: Robot, metrics: dict[str, Any]
+) -> dict[str, bytes]:
+    """The files of `write_outputs` as name -> bytes, in the order they are written (the clip
+    last: a clip has its companions)."""
     trajectory = to_trajectory(solution, robot, metrics)
     metrics = metrics | physics_figures(solution, robot, trajectory)
     trajectory = replace(trajectory, metadata=replace(trajectory.metadata, metrics=metrics))
     buffer = io.BytesIO()
     np.savez_compressed(buffer, time=solution.time, dt=solution.dt, **solution.knots)
-    with atomic_output(folder / f"{name}.knots.npz") as stream:
-        stream.write(buffer.getvalue())
     resolved = {"config": solution.config.to_dict(), "metrics": metrics}
-    write_text_atomic(folder / f"{name}.config.json", json.dumps(resolved, indent=2) + "\n")
-    return write(folder / f"{name}.mcap", trajectory, robot)  # last: a clip has its companions
+    return {
+        f"{name}.knots.npz": buffer.getvalue(),
+        f"{name}.config.json": (json.dumps(resolved, indent=2) + "\n").encode(),
+        f"{name}.mcap": encode(trajectory, robot),
+    }

@@ -5,23 +5,24 @@ Importable without the [trajopt] extra; a run without it is a TrajoptError namin
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from motionkit.digests import digest, source_digest, versions
 from motionkit.errors import MotionkitError, TrajoptError
+from motionkit.executors import THREAD_VARIABLES, open_executor
 from motionkit.extras import require
-from motionkit.outputs import check_out, claim_out, claimed_out
+from motionkit.outputs import check_out, claim_out, claimed_out, up_to_date, write_files
 from motionkit.robot import Robot
 from motionkit.trajopt.config import TrajoptConfig
-from motionkit.workers import worker_pool
 
-Task = tuple[dict[str, Any], str, str, bool, Robot]  # config, out folder, clip name, replay, robot
+Task = tuple[dict[str, Any], str, bool, Robot]  # config, clip name, replay, robot
 Outcome = tuple[str, bool, str, dict[str, float]]  # name, solved, summary or error, figures
 FIGURES = ("solve_s", "duration_s", "airborne_s")  # what a batch reports of each clip
-THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 SUFFIXES = (".mcap", ".knots.npz", ".config.json")  # the files of one solve
 
 
@@ -54,8 +55,23 @@ def solve_clip(
     .config.json); returns its metrics. TrajoptError (nothing written) when it fails."""
     require("trajopt", "trajopt", TrajoptError)
     check_clips(out, [name])
+    metrics, files = solve_files(config, name, robot, replay, log)
+    folder = claim_out(Path(out), clip_files([name]), TrajoptError)
+    write_files(folder, files)
+    return metrics
+
+
+def solve_files(
+    config: TrajoptConfig,
+    name: str,
+    robot: Robot,
+    replay: bool = True,
+    log: Callable[[str], None] | None = None,
+) -> tuple[dict[str, Any], dict[str, bytes]]:
+    """Solve and check one scenario: its metrics and its files (name -> bytes, in the order
+    they are to be written); TrajoptError when it fails."""
     from motionkit.trajopt.checks import check_solution, motion_figures, solver_figures
-    from motionkit.trajopt.output import write_outputs
+    from motionkit.trajopt.output import encode_outputs
     from motionkit.trajopt.solve import solve
 
     log = log or (lambda line: print(f"[{name}] {line}", flush=True))
@@ -72,9 +88,7 @@ def solve_clip(
             f"{name}: the solution fails its checks: "
             + ", ".join(f"{k} = {v}" for k, v in metrics.items() if not isinstance(v, list))
         )
-    folder = claim_out(Path(out), clip_files([name]), TrajoptError)
-    write_outputs(folder, name, solution, robot, metrics)
-    return metrics
+    return metrics, encode_outputs(name, solution, robot, metrics)
 
 
 def summary_line(name: str, metrics: dict[str, Any]) -> str:
@@ -100,20 +114,31 @@ def solve_grid(
     robot: Robot,
     jobs: int,
     replay: bool = True,
+    cluster: str | None = None,
+    resume: bool = False,
 ) -> list[Outcome]:
-    """One solve of `config` per target, each clip named by `clip_stem`, in `jobs` processes."""
+    """One solve of `config` per target, each clip named by `clip_stem`, in `jobs` processes
+    (or on the Ray cluster at `cluster`); `resume` keeps the clips that are up to date."""
     tasks = []
     for target in targets:
         item = config.with_scenario(target=tuple(target))
-        tasks.append((item.to_dict(), str(out), clip_stem(item), replay, robot))
-    return solve_batch(tasks, [config], jobs)
+        tasks.append((item.to_dict(), clip_stem(item), replay, robot))
+    return solve_batch(tasks, [config], out, jobs, cluster, resume)
 
 
 def solve_library(
-    path: Path, out: Path, robot: Robot, jobs: int, replay: bool = True, quiet: bool = False
+    path: Path,
+    out: Path,
+    robot: Robot,
+    jobs: int,
+    replay: bool = True,
+    quiet: bool = False,
+    cluster: str | None = None,
+    resume: bool = False,
 ) -> list[Outcome]:
-    """Solve, check and write every clip of a flight library for `robot` in `jobs` processes;
-    a clip that fails is reported in its outcome and writes nothing."""
+    """Solve, check and write every clip of a flight library for `robot` in `jobs` processes
+    (or on the Ray cluster at `cluster`); a clip that fails is reported in its outcome and
+    writes nothing; `resume` keeps the clips that are up to date."""
     from motionkit.trajopt.library import read_library
 
     solves = read_library(path)
@@ -121,40 +146,95 @@ def solve_library(
     if quiet:  # IPOPT is quiet already unless an entry asks for its log
         configs = [replace(c, solver=replace(c.solver, print_level=0)) for c in configs]
     tasks = [
-        (config.to_dict(), str(out), solve.name, replay, robot)
+        (config.to_dict(), solve.name, replay, robot)
         for solve, config in zip(solves, configs, strict=True)
     ]
     print(f"{path}: {len(tasks)} clips from {len({s.entry for s in solves})} entries", flush=True)
-    return solve_batch(tasks, configs, jobs)
+    return solve_batch(tasks, configs, out, jobs, cluster, resume)
 
 
-def solve_batch(tasks: list[Task], configs: list[TrajoptConfig], jobs: int) -> list[Outcome]:
-    """Solve the tasks in `jobs` worker processes, printing each outcome as it comes; with
-    several workers, the compiled derivatives of each distinct jet model in `configs` are built
-    here first, once, so that the workers find them cached."""
+def solve_batch(
+    tasks: list[Task],
+    configs: list[TrajoptConfig],
+    out: Path,
+    jobs: int,
+    cluster: str | None = None,
+    resume: bool = False,
+) -> list[Outcome]:
+    """Solve the tasks in `jobs` worker processes (or on the Ray cluster at `cluster`),
+    printing each outcome as it comes; the workers return the files and this process writes
+    them. With several workers, the compiled derivatives of each distinct jet model in
+    `configs` are built here first, once, and handed to the workers (whose caches may be on
+    other machines). With `resume`, a clip whose files are up to date (`task_key`) is kept."""
     require("trajopt", "trajopt", TrajoptError)
     if not tasks:
         return []
-    out = Path(tasks[0][1])
-    check_clips(out, [task[2] for task in tasks])  # before any work
-    if len(tasks) > 1 and jobs > 1:
-        robot = tasks[0][4]
-        for config in {c.jets: c for c in configs}.values():
-            _compile_once(config, robot)
-    outcomes = []
+    out = Path(out)
+    check_clips(out, [task[1] for task in tasks])  # before any work
+    keys = [task_key(task) for task in tasks]
+    outcomes: dict[int, Outcome] = {}
     with (
-        claimed_out(out, clip_files(task[2] for task in tasks), TrajoptError),
         _single_threaded_workers(),
-        worker_pool(jobs, out) as pool,
+        open_executor(jobs, cluster, TrajoptError) as executor,
+        claimed_out(out, clip_files(task[1] for task in tasks), TrajoptError),
     ):
-        for outcome in pool.map(_batch_task, tasks):
+        for i, task in enumerate(tasks):
+            kept = _kept(out, task[1], keys[i]) if resume else None
+            if kept is not None:
+                outcomes[i] = kept
+                print(kept[2], flush=True)
+        todo = [i for i in range(len(tasks)) if i not in outcomes]
+        kept = f"; {len(outcomes)} up to date, kept" if outcomes else ""
+        print(f"solving {len(todo)} clip(s) with {executor.where}{kept}", flush=True)
+        shared: dict[str, bytes] = {}
+        if todo and (cluster or (len(todo) > 1 and executor.workers > 1)):
+            shared = _compile_once(configs, tasks[0][3])
+        names = [tasks[i][1] for i in todo]
+        for done in executor.run(_batch_task, [tasks[i] for i in todo], names, shared):
+            i = todo[done.index]
+            if done.value is None:
+                outcome: Outcome = (tasks[i][1], False, done.lost, {})
+            else:
+                outcome, files = done.value
+                if files:
+                    write_files(out, files, keys[i])
             name, ok, text, _ = outcome
             print(text if ok else f"{name}: FAILED: {text}", flush=True)
-            outcomes.append(outcome)
-    return outcomes
+            outcomes[i] = outcome
+    return [outcomes[i] for i in range(len(tasks))]
 
 
-def library_summary(outcomes: list[Outcome], wall: float, jobs: int) -> str:
+def task_key(task: Task) -> str:
+    """The hash of everything a solve's files depend on (its config, name, replay, the robot,
+    the code and the solver's libraries): files recorded with it are up to date."""
+    data, name, replay, robot = task
+    return digest(
+        "trajopt clip",
+        name,
+        data,
+        replay,
+        robot.model_hash,
+        source_digest(["trajopt", "dataset", "robot"]),
+        versions("casadi", "adam-robotics", "mujoco"),
+    )
+
+
+def _kept(out: Path, name: str, key: str) -> Outcome | None:
+    """The outcome of a solve whose files in `out` are up to date (from its .config.json)."""
+    if not up_to_date(out, clip_files([name]), key):
+        return None
+    try:
+        metrics = json.loads((out / f"{name}.config.json").read_text())["metrics"]
+        text = summary_line(name, metrics)
+        figures = {k: float(metrics[k]) for k in FIGURES}
+    except (OSError, ValueError, KeyError, TypeError):
+        return None  # unreadable: solved again
+    return name, True, f"{text} (up to date, kept)", figures
+
+
+def library_summary(
+    outcomes: list[Outcome], wall: float, jobs: int, cluster: str | None = None
+) -> str:
     """A table of the clips (airborne, duration and IPOPT seconds) and the totals."""
     solved = [(name, figures) for name, ok, _, figures in outcomes if ok]
     width = max([len(name) for name, _ in solved] + [4])
@@ -171,27 +251,36 @@ def library_summary(outcomes: list[Outcome], wall: float, jobs: int) -> str:
     lines.append(
         f"{len(solved)} of {len(outcomes)} clips solved; airborne {airborne:.1f} s in all "
         f"({per_clip:.2f} s per clip); IPOPT {solve_s:.0f} s in all; wall {wall:.0f} s "
-        f"with --jobs {jobs}"
+        + (f"on --cluster {cluster}" if cluster else f"with --jobs {jobs}")
     )
     if failed:
         lines.append(f"failed: {', '.join(failed)}")
     return "\n".join(lines)
 
 
-def _batch_task(task: Task) -> Outcome:
-    data, out, name, replay, robot = task
+def _batch_task(task: Task, libraries: dict[str, bytes]) -> tuple[Outcome, dict[str, bytes]]:
+    """One solve in a worker: its outcome and its files (none when it failed)."""
+    from motionkit.trajopt.compiled import install_libraries
+
+    install_libraries(libraries)
+    data, name, replay, robot = task
     try:
-        metrics = solve_clip(TrajoptConfig.from_dict(data), Path(out), name, robot, replay)
+        metrics, files = solve_files(TrajoptConfig.from_dict(data), name, robot, replay)
     except MotionkitError as exc:
-        return name, False, str(exc), {}
-    return name, True, summary_line(name, metrics), {k: metrics[k] for k in FIGURES}
+        return (name, False, str(exc), {}), {}
+    return (name, True, summary_line(name, metrics), {k: metrics[k] for k in FIGURES}), files
 
 
-def _compile_once(config: TrajoptConfig, robot: Robot) -> None:
-    """Build the compiled functions in this process, so that the workers find them cached."""
+def _compile_once(configs: list[TrajoptConfig], robot: Robot) -> dict[str, bytes]:
+    """Build the compiled functions of each distinct jet model in `configs` here, once; their
+    files, for the workers to install in their caches."""
+    from motionkit.trajopt.compiled import LOADED, export_libraries
     from motionkit.trajopt.solve import Prepared
 
-    Prepared(robot, config, log=lambda text: print(text, flush=True))
+    first = len(LOADED)
+    for config in {c.jets: c for c in configs}.values():
+        Prepared(robot, config, log=lambda text: print(text, flush=True))
+    return export_libraries(LOADED[first:])
 
 
 @contextlib.contextmanager

@@ -233,3 +233,33 @@ def test_every_stage_of_a_run_gets_its_robot(
     other = run_pipeline(config, out, load_robot(heavier, toy_robot_files[1]), mocap_dir=mocap,
                          until="retarget")  # fmt: skip
     assert other[0].status == "ran" and given[-1].total_mass == pytest.approx(12.0)
+
+
+def test_cluster_goes_to_the_retarget_and_library_batches(
+    tmp_path: Path, toy_robot_files: tuple[Path, Path], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """--cluster reaches run_retarget and solve_library (recorded, not run); it is not part of
+    the stages' keys: the same outputs from a cluster or from local processes."""
+    import motionkit.retarget.batch as batch
+    import motionkit.trajopt.runner as runner
+
+    calls: list[tuple[str, object]] = []
+    monkeypatch.setattr(batch, "run_retarget", lambda *a: calls.append(("retarget", a[5])) or [])
+    monkeypatch.setattr(
+        runner, "solve_library", lambda *a, **k: calls.append(("library", k["cluster"])) or []
+    )
+    mocap = tmp_path / "mocap"
+    mocap.mkdir()
+    (mocap / "walk.bvh").write_text(mini_bvh(arms_down(40)))
+    recipe = tiny_recipes(tmp_path)
+    text = recipe.read_text().replace(
+        'recipes = ["takeoff.toml"]', 'recipes = []\nlibrary = "library"'
+    )
+    recipe.write_text(text)
+    config, robot = PipelineConfig.from_toml(recipe), load_robot(*toy_robot_files)
+    first = run_pipeline(config, tmp_path / "a", robot, mocap_dir=mocap, until="trajopt",
+                         cluster="10.0.0.5:6379")  # fmt: skip
+    assert calls == [("retarget", "10.0.0.5:6379"), ("library", "10.0.0.5:6379")]
+    local = run_pipeline(config, tmp_path / "b", robot, mocap_dir=mocap, until="trajopt")
+    assert calls[2:] == [("retarget", None), ("library", None)]
+    assert [o.key for o in first] == [o.key for o in local]
