@@ -1,4 +1,4 @@
-"""Retarget and trajopt batches on a real local Ray cluster (conftest.py) give the files local
+"""Retarget and trajopt batches on a real local Ray cluster (ray_head.py) give the files local
 processes give; a task whose worker dies is run again, and lost after a second death; --resume
 solves only what is missing; the trajopt workers use the derivatives the driver compiled."""
 
@@ -22,6 +22,10 @@ from motionkit.outputs import MANIFEST
 
 pytest.importorskip("ray")
 pytest.importorskip("placo")
+import ray_head  # the fixtures (a conftest.py here would shadow the root one)
+
+ray_cluster, worker_cache = ray_head.ray_cluster, ray_head.worker_cache
+_quick_compile = ray_head._quick_compile  # autouse
 REPO = Path(__file__).resolve().parents[2]
 RECIPES = REPO / "motionkit" / "recipes" / "trajopt"
 CLIPS = ("walk0", "walk1", "walk2")
