@@ -43,9 +43,10 @@ def _ray() -> str:
     return str(Path(sys.executable).with_name("ray"))
 
 
-@pytest.fixture(autouse=True, scope="session")
+@pytest.fixture(autouse=True, scope="module")
 def _quick_compile() -> Iterator[None]:
-    """Compile the trajopt derivatives at -O0 (seconds); the workers get it from the driver."""
+    """Compile the trajopt derivatives at -O0 (seconds); the workers get it from the driver.
+    For the cluster module only: the other trajopt tests solve with the default flags."""
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("MOTIONKIT_TRAJOPT_COMPILE", "-O0")
         yield
