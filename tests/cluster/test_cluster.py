@@ -152,10 +152,11 @@ def test_ctrl_c_on_the_cluster_keeps_the_finished_clips_whole(
     listed, no temporary file, no summary."""
     walks = tmp_path / "walks"
     walks.mkdir()
-    for k in range(4):
-        (walks / f"long{k}.bvh").write_text(mini_bvh(arms_down(150 + 10 * k)))
+    for k in range(6):  # 2 CPUs: after the first clip, at least three have not started
+        (walks / f"long{k}.bvh").write_text(mini_bvh(arms_down(300 + 10 * k)))
     out = tmp_path / "out"
-    env = os.environ | {"PYTHONPATH": str(REPO)}
+    # unbuffered: the "[1/4]" line must arrive when the first clip is written, not at exit
+    env = os.environ | {"PYTHONPATH": str(REPO), "PYTHONUNBUFFERED": "1"}
     argv = ["retarget", str(walks), "--out", str(out), "--cluster", ray_cluster.address]
     command = [sys.executable, "-m", "motionkit.cli", *argv]
     process = subprocess.Popen(
@@ -163,16 +164,16 @@ def test_ctrl_c_on_the_cluster_keeps_the_finished_clips_whole(
     )
     assert process.stdout is not None
     for line in process.stdout:
-        if line.startswith("[1/4]"):
+        if line.startswith("[1/6]"):
             process.send_signal(signal.SIGINT)
             break
     _, err = process.communicate(timeout=60)
     assert process.returncode == 130 and "motionkit: interrupted" in err
     written = sorted(p.name for p in out.iterdir())
     clips = [name for name in written if name.endswith(".mcap")]
-    assert written == [MANIFEST, *clips] and 1 <= len(clips) < 4
+    assert written == [MANIFEST, *clips] and 1 <= len(clips) < 6
     for name in clips:
-        assert read(out / name).frames >= 150
+        assert read(out / name).frames >= 300
 
 
 def grid_argv(recipe: Path, out: Path, *extra: str) -> list[str]:

@@ -180,4 +180,6 @@ def test_two_devices_give_the_first_update_of_one(two_devices) -> None:
         # each device's own rollout (policy within 6.3e-7, discriminator 1.6e-7)
         for tag in ("same_batch", "2"):
             for a, b in zip(_leaves(arrays, f"{net}/{tag}/"), single, strict=True):
-                np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6, err_msg=f"{net} {tag}")
+                # atol: 1.9e-6 seen on one weight of 4,096 with jax 0.10.2 (8.8e-7 with 0.9.2),
+                # a hundredth of one Adam step of the recipe's learning rate
+                np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-5, err_msg=f"{net} {tag}")
