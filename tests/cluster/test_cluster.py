@@ -163,10 +163,13 @@ def test_ctrl_c_on_the_cluster_keeps_the_finished_clips_whole(
         command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
     )
     assert process.stdout is not None
-    for line in process.stdout:
-        if line.startswith("[1/6]"):
+    sent = False
+    for line in process.stdout:  # Ray's worker lines share the stream: "in", not startswith
+        if "[1/6]" in line:
             process.send_signal(signal.SIGINT)
+            sent = True
             break
+    assert sent, "no progress line for the first clip"
     _, err = process.communicate(timeout=60)
     assert process.returncode == 130 and "motionkit: interrupted" in err
     written = sorted(p.name for p in out.iterdir())
