@@ -160,8 +160,9 @@ def test_ctrl_c_on_the_cluster_keeps_the_finished_clips_whole(
     argv = ["retarget", str(walks), "--out", str(out), "--cluster", ray_cluster.address]
     command = [sys.executable, "-m", "motionkit.cli", *argv]
     process = subprocess.Popen(
-        command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
-    )
+        command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=_ctrl_c_as_in_a_terminal,
+    )  # fmt: skip
     assert process.stdout is not None
     sent = False
     for line in process.stdout:  # Ray's worker lines share the stream: "in", not startswith
@@ -177,6 +178,12 @@ def test_ctrl_c_on_the_cluster_keeps_the_finished_clips_whole(
     assert written == [MANIFEST, *clips] and 1 <= len(clips) < 6
     for name in clips:
         assert read(out / name).frames >= 300
+
+
+def _ctrl_c_as_in_a_terminal() -> None:
+    """SIGINT at its default in the child: a run started in the background (`cmd &` in a
+    script, as CI may be) inherits it ignored, and Python then never raises KeyboardInterrupt."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def grid_argv(recipe: Path, out: Path, *extra: str) -> list[str]:
