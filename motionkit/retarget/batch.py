@@ -114,7 +114,7 @@ def encode_clip(
     MCAP file; errors become the result's `error` (and no bytes)."""
     from motionkit.dataset import encode
     from motionkit.mocap import load_mocap
-    from motionkit.retarget.core import CMU_ACKNOWLEDGEMENT, CMU_LICENCE, retarget
+    from motionkit.retarget.core import CMU_ACKNOWLEDGEMENT, CMU_LICENCE, retarget, span_frames
 
     began = clock.perf_counter()
     try:
@@ -130,7 +130,8 @@ def encode_clip(
         span = config.trim.get(clip.name)
         frames = motion.frames
         if span is not None:  # the frames core.trimmed keeps
-            frames = round(span[1] * motion.rate) - round(span[0] * motion.rate) + 1
+            first, last = span_frames(motion.rate, span)
+            frames = last - first + 1
         total = frames * (config.balance.passes + 1)  # the balance filter solves again
         step = None if progress is None else (lambda t: progress(t + 1, total))
         trajectory, timings = retarget(

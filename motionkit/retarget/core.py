@@ -109,13 +109,18 @@ def retarget(
     return trajectory, Timings(planned - start, solved - planned, measured - solved)
 
 
+def span_frames(rate: float, span: tuple[float, float]) -> tuple[int, int]:
+    """The first and last frame (both kept) of `span` [s] in a motion at `rate` Hz."""
+    return round(span[0] * rate), round(span[1] * rate)
+
+
 def trimmed(
     landmarks: dict[str, Array], rate: float, span: tuple[float, float]
 ) -> dict[str, Array]:
     """The frames of `landmarks` (at `rate` Hz) from span[0] to span[1] s, both included."""
     frames = len(next(iter(landmarks.values())))
     duration = (frames - 1) / rate
-    first, last = round(span[0] * rate), round(span[1] * rate)
+    first, last = span_frames(rate, span)
     if last > frames - 1 + 1e-6 * rate or last - first < 1:
         raise RetargetError(
             f"trim [{span[0]}, {span[1]}] s does not fit the motion ({duration:.3f} s long)"
