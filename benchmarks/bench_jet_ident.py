@@ -3,7 +3,7 @@ simulator's thrust step against one MJX physics step of the robot; with --family
 each engine of a family the LSTM was not made for.
 
     python benchmarks/bench_jet_ident.py [--batch 4096] [--recipe jet_ident/p250.toml] [--skip-fit]
-    python benchmarks/bench_jet_ident.py --family [--engines p250,spool]
+    python benchmarks/bench_jet_ident.py --family [--engines p250,spool] [--trials 2]
 
 --family: for every engine of motionkit.jet_ident.family (two of the published second-order
 structure, three of the spool structure; their own coefficients, noise, sensor low-pass, delay
@@ -24,6 +24,7 @@ at the same batch.
 from __future__ import annotations
 
 import argparse
+import itertools
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -103,16 +104,19 @@ def fit_and_score(config: JetIdentConfig) -> LSTMThrust:
     return training.params
 
 
-def family_table(config: JetIdentConfig, names: list[str]) -> None:
-    """Fit one 9-minute log of each engine, free-run a 3-minute held-out log; print the table."""
+def family_table(config: JetIdentConfig, names: list[str], trials: int) -> None:
+    """Fit one 9-minute log of each engine, free-run a 3-minute held-out log; print the table.
+    Engine number i (from 1, in ENGINES) trains on seed i + 10 t and holds out seed 100 + i +
+    10 t in trial t (from 0)."""
     warm = config.train.warmup
     header = (
-        f"{'engine':<12}{'plant':<7}{'prior, dead time':<20}{'LSTM MAE/RMSE':>15}{'grey box':>13}"
-        f"{'floor':>13}{'ratio':>7}{'chosen':>9}{'fit s':>7}"
+        f"{'engine':<16}{'seed':>5} {'plant':<10}{'prior, dead time':<20}{'LSTM MAE/RMSE':>15}"
+        f"{'grey box':>13}{'floor':>13}{'ratio':>7}{'chosen':>9}{'fit s':>7}"
     )
     print(header)
     verdicts = []
-    for k, name in enumerate(names, 1):
+    for name, trial in itertools.product(names, range(trials)):
+        k = list(ENGINES).index(name) + 1 + 10 * trial  # an engine's logs: whatever else runs
         bench = replace(ENGINES[name], duration_s=540.0)
         train = synthetic_run(bench, k)
         held = synthetic_run(replace(bench, duration_s=180.0), 100 + k, ambient_c=train.ambient_c)
@@ -134,7 +138,7 @@ def family_table(config: JetIdentConfig, names: list[str]) -> None:
         )
         verdicts.append(ok)
         print(
-            f"{name:<12}{bench.plant:<7}"
+            f"{name:<16}{k:>5} {bench.plant:<10}"
             f"{result.training.prior + f', {result.training.delay * held.dt * 1e3:.0f} ms':<20}"
             f"{lstm.mae:7.3f} /{lstm.rmse:6.3f}{grey.mae:6.3f} /{grey.rmse:5.2f}"
             f"{floor[0]:6.3f} /{floor[1]:5.2f}{ratio:7.2f}{selected(result.metrics):>9}"
@@ -187,11 +191,14 @@ def main() -> None:
     parser.add_argument("--skip-fit", action="store_true", help="part (b) only, random weights")
     parser.add_argument("--family", action="store_true", help="the engine family table only")
     parser.add_argument("--engines", default=",".join(ENGINES), help="--family: which engines")
+    parser.add_argument(
+        "--trials", type=int, default=1, help="--family: profiles (seed pairs) per engine"
+    )
     args = parser.parse_args()
     config = JetIdentConfig.from_toml(args.recipe)
     print(f"recipe {args.recipe}; jax {jax.__version__} on {jax.devices()[0].platform}")
     if args.family:
-        family_table(config, args.engines.split(","))
+        family_table(config, args.engines.split(","), args.trials)
         return
 
     if args.skip_fit:

@@ -198,75 +198,117 @@ def _train(
     minutes: float,
     progress: Callable[[str], None] | None,
 ) -> TrainResult:
+    """Adam on free-run windows of `config.window` samples, then (with `long_window`) on
+    windows of that length from the best so far, as many samples per step; each phase stops
+    early on its own, the time limit ends both."""
     start = time.perf_counter()
     prior, delay = start_prior
     warmup = config.warmup
-    length = warmup + config.window
-    schedule = optax.cosine_decay_schedule(config.learning_rate, config.max_steps, alpha=0.05)
-    optimizer = optax.chain(optax.clip_by_global_norm(config.clip_norm), optax.adam(schedule))
+    phases = [(config.window, config.batch)]
+    if config.long_window > config.window:
+        long_batch = max(1, round(config.batch * config.window / config.long_window))
+        phases.append((config.long_window, long_batch))
 
     def loss_fn(variables: dict[str, Any], thrust: jax.Array, throttle: jax.Array) -> jax.Array:
         simulated = rollout(hidden, variables, norm, dt, thrust, throttle, warmup)
         return jnp.mean(((simulated - thrust[:, warmup:]) / norm.thrust_std) ** 2)
 
-    @jax.jit
-    def update(variables: Any, opt_state: Any, thrust: jax.Array, throttle: jax.Array) -> Any:
-        loss, grads = jax.value_and_grad(loss_fn)(variables, thrust, throttle)
-        updates, opt_state = optimizer.update(grads, opt_state, variables)
-        return optax.apply_updates(variables, updates), opt_state, loss
+    def score(variables: dict[str, Any]) -> tuple[float, float]:
+        return validate(LSTMThrust.from_variables(variables, norm, dt, delay), valid, warmup)
 
-    rng = np.random.default_rng(config.seed)
-    starts = np.concatenate(  # (segment, offset) of every window
-        [[(i, o) for o in range(len(t) - length + 1)] for i, (t, _) in enumerate(train)]
-    )
     variables = init_variables(hidden, config.seed, prior)
-    opt_state = optimizer.init(variables)
-    mae, rmse = validate(LSTMThrust.from_variables(variables, norm, dt, delay), valid, warmup)
+    mae, rmse = score(variables)
     best = (rmse, variables, 0, mae)
     history: list[dict[str, float]] = [
         {"step": 0, "loss": float("nan"), "val_mae": mae, "val_rmse": rmse, "seconds": 0.0}
     ]
-    losses: list[float] = []
-    stopped, waited = "max steps", 0
-    for step in range(1, config.max_steps + 1):
-        picks = starts[rng.integers(0, len(starts), config.batch)]
-        thrust = np.stack([train[w][0][o : o + length] for w, o in picks])
-        throttle = np.stack([train[w][1][o : o + length] for w, o in picks])
-        variables, opt_state, loss = update(variables, opt_state, thrust, throttle)
-        losses.append(float(loss))
-        if step % config.eval_every and step != config.max_steps:
-            continue
-        mae, rmse = validate(LSTMThrust.from_variables(variables, norm, dt, delay), valid, warmup)
-        elapsed = time.perf_counter() - start
-        history.append(
-            {
-                "step": step,
-                "loss": float(np.mean(losses)),
-                "val_mae": mae,
-                "val_rmse": rmse,
-                "seconds": elapsed,
-            }
-        )
-        losses = []
-        if rmse < best[0]:
-            best, waited = (rmse, variables, step, mae), 0
-        else:
-            waited += 1
-        if progress:
-            mark = "*" if best[2] == step else " "
-            progress(
-                f"step {step:5d}  loss {history[-1]['loss']:.5f}  validation MAE {mae:6.3f} N"
-                f"  RMSE {rmse:6.3f} N {mark} {elapsed:5.0f} s"
-            )
-        if waited >= config.patience:
-            stopped = "early stop"
-            break
-        if elapsed > 60 * minutes:
-            stopped = "time limit"
+    step, stopped = 0, ""
+    for window, batch in phases:
+        schedule = optax.cosine_decay_schedule(config.learning_rate, config.max_steps, alpha=0.05)
+        optimizer = optax.chain(optax.clip_by_global_norm(config.clip_norm), optax.adam(schedule))
+
+        @jax.jit
+        def update(variables: Any, opt_state: Any, thrust: jax.Array, throttle: jax.Array) -> Any:
+            loss, grads = jax.value_and_grad(loss_fn)(variables, thrust, throttle)
+            updates, opt_state = optimizer.update(grads, opt_state, variables)  # noqa: B023
+            return optax.apply_updates(variables, updates), opt_state, loss
+
+        draw = WindowSampler(train, warmup + window, config.thrust_bands, config.seed + step)
+        variables = best[1]
+        opt_state = optimizer.init(variables)
+        losses: list[float] = []
+        waited, first, stopped = 0, step + 1, "max steps"
+        for step in range(first, first + config.max_steps):
+            variables, opt_state, loss = update(variables, opt_state, *draw(batch))
+            losses.append(float(loss))
+            if (step - first + 1) % config.eval_every and step != first + config.max_steps - 1:
+                continue
+            mae, rmse = score(variables)
+            elapsed = time.perf_counter() - start
+            row = {"step": step, "loss": float(np.mean(losses)), "val_mae": mae}
+            history.append({**row, "val_rmse": rmse, "seconds": elapsed})
+            losses = []
+            if rmse < best[0]:
+                best, waited = (rmse, variables, step, mae), 0
+            else:
+                waited += 1
+            if progress:
+                mark = "*" if best[2] == step else " "
+                progress(
+                    f"step {step:5d}  window {window}  loss {row['loss']:.5f}  validation MAE "
+                    f"{mae:6.3f} N  RMSE {rmse:6.3f} N {mark} {elapsed:5.0f} s"
+                )
+            if waited >= config.patience:
+                stopped = "early stop"
+                break
+            if elapsed > 60 * minutes:
+                stopped = "time limit"
+                break
+        if stopped == "time limit":
             break
     params = LSTMThrust.from_variables(best[1], norm, dt, delay)
     seconds = time.perf_counter() - start
     return TrainResult(params, best[2], stopped, seconds, history, mae=best[3], rmse=best[0])
+
+
+class WindowSampler:
+    """Random training windows of `length` samples: (thrust, throttle), each [batch, length].
+
+    With `bands` > 1 every band of the windows' mean thrust (`bands` of equal width over the
+    training range) is drawn as often as the others, and windows uniformly within a band: one
+    log of an engine often spends little of its time in part of its range (near idle, say),
+    and balanced draws keep the fit from neglecting it."""
+
+    def __init__(self, train: Sequence[Segment], length: int, bands: int, seed: int) -> None:
+        self.train, self.length = train, length
+        self.rng = np.random.default_rng(seed)
+        self.starts = np.array(  # (segment, offset) of every window
+            [(i, o) for i, (t, _) in enumerate(train) for o in range(len(t) - length + 1)]
+        )
+        self.chances = window_chances(train, self.starts, length, bands) if bands > 1 else None
+
+    def __call__(self, batch: int) -> tuple[np.ndarray, np.ndarray]:
+        if self.chances is None:
+            picks = self.starts[self.rng.integers(0, len(self.starts), batch)]
+        else:
+            picks = self.starts[self.rng.choice(len(self.starts), batch, p=self.chances)]
+        span = self.length
+        thrust = np.stack([self.train[w][0][o : o + span] for w, o in picks])
+        return thrust, np.stack([self.train[w][1][o : o + span] for w, o in picks])
+
+
+def window_chances(
+    train: Sequence[Segment], starts: np.ndarray, length: int, bands: int
+) -> np.ndarray:
+    """The chance of drawing each window (segment, offset) of `starts` (see WindowSampler)."""
+    if bands <= 1:
+        return np.full(len(starts), 1.0 / len(starts))
+    sums = [np.concatenate([[0.0], np.cumsum(t)]) for t, _ in train]
+    means = np.array([(sums[i][o + length] - sums[i][o]) / length for i, o in starts])
+    edges = np.linspace(means.min(), means.max(), bands + 1)[1:-1]
+    band = np.searchsorted(edges, means, side="right")
+    weights = 1.0 / np.bincount(band, minlength=bands)[band]
+    return weights / weights.sum()
 
 
 def validate(params: LSTMThrust, segments: Sequence[Segment], warmup: int) -> tuple[float, float]:

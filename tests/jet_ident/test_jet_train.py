@@ -16,7 +16,14 @@ from motionkit.jet_ident.fit import GREY_BOX, LSTM, identify
 from motionkit.jet_ident.model import init_variables
 from motionkit.jet_ident.step import LSTMThrust
 from motionkit.jet_ident.synthetic import synthetic_run
-from motionkit.jet_ident.train import split, split_logs, train_lstm, validate
+from motionkit.jet_ident.train import (
+    WindowSampler,
+    split,
+    split_logs,
+    train_lstm,
+    validate,
+    window_chances,
+)
 
 TINY = TrainConfig(
     warmup=10, window=60, batch=8, learning_rate=1e-2, max_steps=150, eval_every=50, patience=5
@@ -79,6 +86,24 @@ def test_blocks_spread_validation_over_the_log() -> None:
     assert train[1].name == "x[train 2/4]" and valid[3].name == "x[validation 4/4]"
     (head,), (tail,) = split([log], 0.2)  # one block: the end validates
     assert len(head[0]) == 800 and tail[0][0] == 8.0
+
+
+def test_windows_are_drawn_evenly_over_the_thrust_bands() -> None:
+    # 900 samples at 20 N, then 100 at 200 N; windows of 10: 891 lie wholly low, 91 wholly
+    # high, the 9 across the step have means 38, 56, ..., 182 N (two bands split at 110 N:
+    # 4 of them below, 5 from it)
+    thrust = np.r_[np.full(900, 20.0), np.full(100, 200.0)]
+    segment = (thrust, np.zeros(1000))
+    sampler = WindowSampler([segment], 10, 2, seed=0)
+    means = np.array([thrust[o : o + 10].mean() for _, o in sampler.starts])
+    low = means < 110
+    assert len(means) == 991 and low.sum() == 895
+    np.testing.assert_allclose(sampler.chances[low], 0.5 / 895)
+    np.testing.assert_allclose(sampler.chances[~low], 0.5 / 96)
+    np.testing.assert_allclose(window_chances([segment], sampler.starts, 10, 0), 1 / 991)
+    drawn, throttle = sampler(4000)
+    assert drawn.shape == throttle.shape == (4000, 10)
+    assert abs(np.mean(drawn.mean(axis=1) > 110) - 0.5) < 0.03  # about half from the 10 %
 
 
 def test_logs_must_share_the_rate_and_be_long_enough() -> None:
