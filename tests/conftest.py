@@ -1,5 +1,6 @@
 """Shared fixtures: a private cache, the ../shared reference (skips if absent), a toy robot."""
 
+import os
 import sys
 from pathlib import Path
 
@@ -8,6 +9,16 @@ import pytest
 SHARED = Path(__file__).resolve().parents[1] / ".." / "shared"
 # test helpers that build mocap files (tests/mocap/mocap_synth.py) serve other stages' tests too
 sys.path.insert(0, str(Path(__file__).resolve().parent / "mocap"))
+
+
+MAX_WORKERS = 4  # each worker compiles MJX and the trajopt problem once: memory, not cores
+
+
+def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
+    """`-n auto`: one worker per core this process may use, at most MAX_WORKERS."""
+    usable = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
+    cores = len(usable) if usable else os.cpu_count() or 1
+    return max(1, min(cores, MAX_WORKERS))
 
 
 @pytest.fixture(autouse=True, scope="session")
