@@ -30,12 +30,14 @@ import numpy as np
 
 from motionkit.dataset import write
 from motionkit.errors import TrainError
+from motionkit.outputs import check_out, claim_out
 from motionkit.robot import Robot
 from motionkit.train import terrain as terrain_lib
 from motionkit.train import waypoints
 from motionkit.train.env import Env
 from motionkit.train.evaluate import first_episode
 from motionkit.train.mjx import mjx
+from motionkit.train.policy import Policy, policy_env
 
 FIELDS = ("qpos", "qvel", "xpos", "xmat", "site_xpos")  # what Env.observe and feet_down read
 FLYING_SHARE = 0.5  # a way with more steps airborne than this was flown
@@ -144,7 +146,7 @@ class Played:
     thrust: list[np.ndarray] = field(default_factory=list)
     target: list[np.ndarray] = field(default_factory=list)  # pursued during the step
     feet_down: list[np.ndarray] = field(default_factory=list)  # after the step
-    end: str = "time limit"
+    end: str = "at the time limit"  # how the run ended, after "ended"
     falls: int = 0
     wall_seconds: float = 0.0
     compile_seconds: float = 0.0
@@ -211,7 +213,7 @@ def roll_out(
         player.step(act(obs))
         qpos = player.data.qpos
         if not (np.isfinite(qpos).all() and np.isfinite(player.data.qvel).all()):
-            played.falls, played.end = 1, f"fell at {(k + 1) / hz:.2f} s (non-finite state)"
+            played.falls, played.end = 1, f"with a fall at {(k + 1) / hz:.2f} s (non-finite state)"
             break
         now = (k + 1) / hz
         thrust = np.asarray(player.thrust)
@@ -231,7 +233,7 @@ def roll_out(
         if leg is not None and not feet.any():
             leg.airborne += 1
         if lift < config.min_base_height:
-            played.falls, played.end = 1, f"fell at {now:.2f} s"
+            played.falls, played.end = 1, f"with a fall at {now:.2f} s"
             break
         if watch is not None:
             for point in watch(qpos, thrust, feet, current()):
@@ -287,3 +289,80 @@ def write_clip(path: Path, played: Played, robot: Robot, meta: dict[str, Any]) -
     if trajectory is None:
         raise TrainError(f"the rollout lasted {played.frames} step(s) ({played.end}): no clip")
     return write(path, trajectory, robot)
+
+
+def route_for(
+    env: Env, start: np.ndarray, given: Sequence[np.ndarray] | None, count: int, seed: int
+) -> list[np.ndarray]:
+    """The waypoints given, or a random route of `count` from `start` (seeded)."""
+    if given is not None:
+        return [np.asarray(p, float) for p in given]
+    if count < 1:
+        raise TrainError(f"--random-route {count}: at least 1 waypoint")
+    return random_route(env, count, seed, start)
+
+
+def play(
+    policy: Policy,
+    robot: Robot,
+    path: Path,
+    *,
+    route: Sequence[np.ndarray] | None = None,
+    count: int = 4,
+    seed: int = 0,
+    seconds: float = 20.0,
+    live: Callable[[Env, list[np.ndarray]], FrameWatcher] | None = None,
+) -> tuple[Played, list[np.ndarray]]:
+    """Roll `policy` out for `robot` from the standing pose toward `route` (None: a random
+    route of `count` waypoints drawn with `seed`) and write the clip to `path` (whose folder
+    check_out/claim_out vouch for; nothing is written on an error). `live(env, route)` makes a
+    watcher (a viewer) that sees each step in real time and may add waypoints."""
+    if not (np.isfinite(seconds) and seconds > 0):
+        raise TrainError(f"--seconds {seconds}: expected a duration > 0")
+    check_out(path.parent, [path.name], TrainError)
+    env = policy_env(policy, robot)
+    player = Player(env)
+    drawn = route is None
+    route = route_for(env, player.data.qpos[:3].copy(), route, count, seed)
+    watch = None if live is None else live(env, route)
+    played = roll_out(
+        player, policy.act_fn(), route, seconds, watch=watch, real_time=watch is not None
+    )
+    meta = {
+        "clip": path.stem,
+        "policy": str(policy.source),
+        "seconds": seconds,
+        "seed": seed if drawn else None,
+        "end": played.end,
+    }
+    claim_out(path.parent, [path.name], TrainError)
+    write_clip(path, played, robot, meta)
+    return played, route
+
+
+def report(played: Played) -> list[str]:
+    """What a rollout did, in lines: each waypoint (when and how reached, thrust), how it
+    ended, falls and the real-time factor."""
+    lines = []
+    for k, leg in enumerate(played.legs, 1):
+        x, y, z = leg.target
+        head = f"waypoint {k} ({x:.2f}, {y:.2f}, {z:.2f}) m: "
+        if not leg.steps:
+            lines.append(head + "not pursued")
+            continue
+        way = (
+            f"{leg.how} (airborne {100 * leg.airborne_share:.0f} % of the way), thrust "
+            f"{100 * leg.thrust_share:.1f} % of T_max"
+        )
+        if leg.reached is None:
+            lines.append(head + f"not reached in {leg.steps / played.control_hz:.2f} s, {way}")
+        else:
+            took = leg.reached - leg.start
+            lines.append(head + f"reached at {leg.reached:.2f} s (after {took:.2f} s), {way}")
+    lines.append(f"ended {played.end}; falls: {played.falls}")
+    lines.append(
+        f"simulated {played.seconds:.2f} s in {played.wall_seconds:.2f} s of wall time: "
+        f"{played.real_time_factor:.1f}x real time (compilation, {played.compile_seconds:.1f} s, "
+        "not counted)"
+    )
+    return lines

@@ -185,16 +185,20 @@ def _norm(state: dict[str, Any]) -> RunningNorm:
 
 
 # -- the environment a policy acts in -----------------------------------------------------------
-def policy_env(policy: Policy, robot: Robot) -> Env:
-    """The environment of the policy's config for `robot`, on MJX-JAX (this machine's
-    CPU; a GPU run's impl and devices are set aside); a TrainError when the policy was made
-    for another robot layout."""
+def cpu_env(config: TrainConfig, robot: Robot) -> Env:
+    """The environment of `config` for `robot` on MJX-JAX, for this machine's CPU (a GPU
+    run's impl and devices set aside)."""
     from motionkit.train.run import make_env
 
-    config = policy.config
     config = replace(
         config, env=replace(config.env, impl="jax"), run=replace(config.run, devices=1)
     )
+    return make_env(config, robot)
+
+
+def policy_env(policy: Policy, robot: Robot) -> Env:
+    """`cpu_env` of the policy's config; a TrainError when the policy was made for another
+    robot layout."""
     layout = policy.layout
     if layout:
         joints, jets = list(robot.joint_names), [jet.name for jet in robot.spec.jets]
@@ -204,7 +208,7 @@ def policy_env(policy: Policy, robot: Robot) -> Env:
                 f"({len(layout.get('joints', []))} joints, {len(layout.get('jets', []))} jets), "
                 f"not for {robot.name} ({len(joints)} joints, {len(jets)} jets)"
             )
-    env = make_env(config, robot)
+    env = cpu_env(policy.config, robot)
     if (policy.obs_size, policy.action_size) != (env.obs_size, env.action_size):
         raise TrainError(
             f"{policy.source}: the policy observes {policy.obs_size} values and makes "
