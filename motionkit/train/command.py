@@ -77,6 +77,11 @@ def add_commands(
     )
     export.add_argument("run", type=Path, metavar="RUN_DIR", help="OUT of `motionkit train`")
     export.add_argument("--out", type=Path, required=True, help="policy folder (required)")
+    export.add_argument(
+        "--half",
+        action="store_true",
+        help="store the actor's weights as float16 (half the size; actions within about 1e-3)",
+    )
     robot_source(export)
     export.set_defaults(handler=_export)
 
@@ -186,7 +191,7 @@ def _export(args: argparse.Namespace) -> int:
     from motionkit.train.policy import export_policy
 
     robot = load_robot(args.urdf, args.spec)
-    sizes = export_policy(args.run, args.out, robot)
+    sizes = export_policy(args.run, args.out, robot, half=args.half)
     files = ", ".join(f"{name} {size / 1e3:.1f} kB" for name, size in sizes.items())
     print(f"wrote {args.out}: {files} ({sum(sizes.values()) / 1e6:.2f} MB)")
     return 0

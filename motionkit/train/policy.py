@@ -2,8 +2,8 @@
 it, from a training run's folder (OUT of `motionkit train`) or from those shipped with
 motionkit (`motionkit/policies/<name>/`).
 
-POLICY_DIR/policy.msgpack   the actor's parameters and the observation normaliser (no critic,
-                            discriminator or optimiser state)
+POLICY_DIR/policy.msgpack   the actor's parameters (float32, or float16 with `half`) and the
+                            observation normaliser (no critic, discriminator or optimiser state)
 POLICY_DIR/policy.json      the robot layout it acts for (joints, jets, observation and action
                             sizes) and the run it came from
 POLICY_DIR/config.toml      the resolved training config (environment, reward, action mapping)
@@ -68,7 +68,7 @@ class Policy:
         """obs (obs_size,) -> the action mean (action_size,), jitted: the deterministic
         policy, as evaluations run it."""
         actor, norm = Actor(self.action_size, self.hidden), self.obs_norm
-        params = jax.tree.map(jnp.asarray, self.actor)
+        params = jax.tree.map(lambda a: jnp.asarray(a, jnp.float32), self.actor)
         return jax.jit(lambda obs: actor.apply(params, norm(jnp.asarray(obs, jnp.float32))))
 
 
@@ -129,12 +129,12 @@ def _load_run(folder: Path) -> Policy:
 
 
 def _load_export(folder: Path) -> Policy:
+    state = _msgpack(folder / PARAMS)
     config = TrainConfig.from_toml(folder / CONFIG)
     if config.env.jet != "ideal" and not Path(config.env.jet_model).is_absolute():
         config = replace(
             config, env=replace(config.env, jet_model=str(folder / config.env.jet_model))
         )
-    state = _msgpack(folder / PARAMS)
     try:
         actor, norm = {"params": state["actor"]}, _norm(state["obs_norm"])
     except (KeyError, TypeError) as exc:
@@ -219,9 +219,10 @@ def policy_env(policy: Policy, robot: Robot) -> Env:
 
 
 # -- export -------------------------------------------------------------------------------------
-def export_policy(run: Path, out: Path, robot: Robot) -> dict[str, int]:
+def export_policy(run: Path, out: Path, robot: Robot, *, half: bool = False) -> dict[str, int]:
     """Write the policy of training run `run` into `out` (see the module doc); the bytes of
-    each file written. A TrainError, with nothing written, when the package would exceed
+    each file written. `half`: the actor's weights as float16 (half the bytes; actions within
+    about 1e-3 of the run's). A TrainError, with nothing written, when the package would exceed
     MAX_BYTES or the run's policy does not fit `robot`."""
     run, out = Path(run), Path(out)
     if not ((run / CONFIG).is_file() and (run / CHECKPOINT).is_file()):
@@ -238,8 +239,9 @@ def export_policy(run: Path, out: Path, robot: Robot) -> dict[str, int]:
             raise TrainError(f"[env] jet_model {model}: cannot read it ({exc.strerror})") from exc
         config = replace(config, env=replace(config.env, jet_model=JET_MODEL))
     norm = policy.obs_norm
+    dtype = np.float16 if half else np.float32
     state = {
-        "actor": policy.actor["params"],
+        "actor": jax.tree.map(lambda a: np.asarray(a, dtype), policy.actor["params"]),
         "obs_norm": {"mean": norm.mean, "var": norm.var, "count": norm.count},
     }
     files[PARAMS] = serialization.msgpack_serialize(jax.tree.map(np.asarray, state))
@@ -251,6 +253,7 @@ def export_policy(run: Path, out: Path, robot: Robot) -> dict[str, int]:
         "observation_size": env.obs_size,
         "action_size": env.action_size,
         "actor_hidden": list(policy.hidden),
+        "actor_dtype": np.dtype(dtype).name,
         "run": str(run),
         "iteration": policy.summary.get("iterations"),
     }
@@ -261,7 +264,8 @@ def export_policy(run: Path, out: Path, robot: Robot) -> dict[str, int]:
     if total > MAX_BYTES:
         raise TrainError(
             f"{run}: its policy package would hold {total / 1e6:.2f} MB, more than the "
-            f"{MAX_BYTES / 1e6:.0f} MB a shipped policy may have (a smaller actor_hidden)"
+            f"{MAX_BYTES / 1e6:.0f} MB a shipped policy may have"
+            + ("" if half else "; --half stores the actor's weights as float16")
         )
     check_out(out, files, TrainError)
     claim_out(out, files, TrainError)
