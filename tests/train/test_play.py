@@ -3,6 +3,7 @@ with plain MuJoCo; the clip, the waypoint bookkeeping, export against run folder
 loop with the MJX environment's `step`, and the refusals."""
 
 import json
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -121,8 +122,10 @@ def test_a_waypoint_at_the_start_is_reached_after_the_first_step(exported: Path,
     assert played.frames == 15 and played.end == "at the time limit"
     np.testing.assert_array_equal(played.target[0], start)  # pursued during step 1
     np.testing.assert_array_equal(played.target[1], [5.0, 5.0, 0.6])
-    assert report(played)[0].endswith(
-        "reached at 0.02 s (after 0.02 s), walking (airborne 0 % of the way), thrust 0.0 % of T_max"
+    assert re.fullmatch(
+        r"waypoint 1 \(0\.00, 0\.00, 0\.6\d\) m: reached at 0\.02 s \(after 0\.02 s\), "
+        r"walking \(airborne 0 % of the way\), thrust \d+\.\d % of T_max",
+        report(played)[0],
     )
     # the last waypoint reached ends the run; one step is too short for a clip
     player.reset(*player.standing())
@@ -149,18 +152,24 @@ def test_another_robot_layout_is_refused(exported: Path, tmp_path: Path, capsys)
 
 
 # -- parity with the MJX environment ------------------------------------------------------------
-def _parity(env, lift: float, noise: float, steps: int = 10) -> dict[str, float]:
-    """Largest differences over `steps` control steps between Env.step (MJX) and Player (plain
-    MuJoCo), from the same standing state raised by `lift` [m], under the same actions (the
-    rest action plus `noise` x N(0, 1))."""
+def _parity(env, batch_fns, lift: float, noise: float, steps: int = 10) -> dict[str, float]:
+    """Largest differences over `steps` control steps between Env.step (MJX; the session's
+    jitted batch step, on a batch of one) and Player (plain MuJoCo), from the same standing
+    state raised by `lift` [m], under the same actions (the rest action plus `noise` x
+    N(0, 1))."""
     from motionkit.train.mjx import mjx
 
-    state = jax.jit(lambda k: env.reset(k, 0.0, 0.0))(jax.random.key(3))
+    reset, batch_step = batch_fns
+    state = jax.tree.map(lambda x: x[0], reset(jax.random.split(jax.random.key(3), 1)))
     data = mjx.kinematics(env.mx, state.data.replace(qpos=state.data.qpos.at[2].add(lift)))
     state = state.replace(data=data, obs=env.observe(data, state.thrust, state.target))
     player = Player(env)
     player.reset(*(np.asarray(x, float) for x in (data.qpos, data.qvel, state.thrust)))
-    step = jax.jit(env.step)
+
+    def step(state, action):
+        one = lambda tree: jax.tree.map(lambda x: x[0], tree)  # noqa: E731
+        return map(one, batch_step(jax.tree.map(lambda x: x[None], state), action[None]))
+
     rng = np.random.default_rng(0)
     worst = dict.fromkeys(("base", "joints", "obs"), 0.0)
     obs, _, _ = player.observe(np.asarray(state.target))
@@ -182,20 +191,20 @@ def _parity(env, lift: float, noise: float, steps: int = 10) -> dict[str, float]
 
 
 @slow
-def test_parity_with_the_environment_in_the_air(env) -> None:
+def test_parity_with_the_environment_in_the_air(env, batch_fns) -> None:
     """Off the ground and below the actuators' force limits MuJoCo and MJX agree to float32
     rounding (measured: base 2e-7 m, joints 1e-7 rad, observation 3e-6 over 10 steps): the
     tolerances (50-100x) catch any difference in the observation, the PD mapping or the jets."""
-    worst = _parity(env, lift=0.3, noise=0.005)
+    worst = _parity(env, batch_fns, lift=0.3, noise=0.005)
     assert worst["base"] < 1e-5 and worst["joints"] < 1e-5 and worst["obs"] < 3e-4, worst
 
 
 @slow
-def test_parity_with_the_environment_on_the_ground(env) -> None:
+def test_parity_with_the_environment_on_the_ground(env, batch_fns) -> None:
     """Standing, MuJoCo's contacts differ from MJX's (box-on-plane contact points; measured
     over 10 steps from a stance 1 mm deep: base 1.3e-3 m, joints 5e-3 rad, observation 0.17,
     joint velocities): bounds 3-4x the measured gap, so that a growing gap shows."""
-    worst = _parity(env, lift=-0.001, noise=0.0)
+    worst = _parity(env, batch_fns, lift=-0.001, noise=0.0)
     assert worst["base"] < 5e-3 and worst["joints"] < 2e-2 and worst["obs"] < 0.6, worst
 
 
