@@ -11,7 +11,7 @@ arrays a few microseconds). tests/train/test_play.py checks the loop against `En
 Waypoints are fed as in training: the current one relative to the base (the observation's last
 block), reached when the base comes within `waypoint_radius`; the next one follows. Unlike in
 training a waypoint has no deadline: it stays until reached. The run ends after the last
-waypoint (unless `keep_going`: a live viewer may place more), at a fall (the base lower than
+waypoint (not with a watcher: a live viewer may place more), at a fall (the base lower than
 `min_base_height` above the terrain, or a non-finite state) or after `seconds`.
 """
 
