@@ -150,6 +150,9 @@ def build_parser() -> argparse.ArgumentParser:
     from motionkit.train.command import add_commands as add_train_commands
 
     add_train_commands(stages, add_robot_source)
+    from motionkit.train.play_command import add_commands as add_play_commands
+
+    add_play_commands(stages, add_robot_source)
     from motionkit.viewer.command import add_commands as add_view_commands
 
     add_view_commands(stages, add_robot_source)

@@ -7,12 +7,16 @@
     config = TrainConfig.from_toml("train/tiny_cpu.toml").select_priors([])
     summary = train_policy(config, out, robot)           # OUT/summary.json, rollouts/, ...
     figures = run_ablation(config, out, robot)           # the four prior settings
+    export_policy(out, "policy", robot)                  # the small policy package
+    played, route = play_policy(load_policy("policy"), robot, Path("play.mcap"))
 
 `train_policy` is `motionkit.train.run.train` (a run in a folder, resumable; the config's
 PriorConfig tables name its priors); `make_env` builds the MJX environment of a config and
-`Trainer` its learner; `enable_compile_cache` keeps XLA's programs in the user cache. Configs
-import without the [train] extra (JAX, flax, optax, MuJoCo); the rest imports it on first use,
-and a missing one is a TrainError naming the extra (`require_train_extra` checks it up front).
+`Trainer` its learner; `play_policy` rolls a policy (`load_policy`: a run folder, a package of
+`export_policy` or a shipped policy) out with plain MuJoCo into a clip; `enable_compile_cache`
+keeps XLA's programs in the user cache. Configs import without the [train] extra (JAX, flax,
+optax, MuJoCo); the rest imports it on first use, and a missing one is a TrainError naming the
+extra (`require_train_extra` checks it up front).
 """
 
 from __future__ import annotations
@@ -29,6 +33,9 @@ _LAZY = {
     "make_env": ("run", "make_env"),
     "run_ablation": ("ablation", "run_ablation"),
     "Trainer": ("train", "Trainer"),
+    "export_policy": ("policy", "export_policy"),
+    "load_policy": ("policy", "load_policy"),
+    "play_policy": ("play", "play"),
 }
 
 __all__ = [

@@ -66,6 +66,24 @@ def add_commands(
     )
     _common(ablation, robot_source, priors=False)
     ablation.set_defaults(handler=_ablation)
+    export = actions.add_parser(
+        "export",
+        help="write a run's policy as a small package for `motionkit play` (at most 2 MB)",
+        description="Write the policy of a training run into POLICY_DIR: the actor's parameters "
+        "and the observation normaliser (policy.msgpack; no critic, discriminator or optimiser "
+        "state), the robot layout it acts for (policy.json), the resolved config (config.toml: "
+        "environment, reward, action mapping), the run's last figures (summary.json) and, for "
+        "fitted jets, their model (jet_model.npz). A package over 2 MB is refused.",
+    )
+    export.add_argument("run", type=Path, metavar="RUN_DIR", help="OUT of `motionkit train`")
+    export.add_argument("--out", type=Path, required=True, help="policy folder (required)")
+    export.add_argument(
+        "--half",
+        action="store_true",
+        help="store the actor's weights as float16 (half the size; actions within about 1e-3)",
+    )
+    robot_source(export)
+    export.set_defaults(handler=_export)
 
 
 def _common(
@@ -165,6 +183,17 @@ def _ablation(args: argparse.Namespace) -> int:
     result = run_ablation(config, args.out, robot, progress=_print)
     print(json.dumps(result["figures"], indent=2))
     print(f"wrote {args.out}/ablation.json and {args.out}/ablation.png")
+    return 0
+
+
+def _export(args: argparse.Namespace) -> int:
+    require_train_extra("train export")
+    from motionkit.train.policy import export_policy
+
+    robot = load_robot(args.urdf, args.spec)
+    sizes = export_policy(args.run, args.out, robot, half=args.half)
+    files = ", ".join(f"{name} {size / 1e3:.1f} kB" for name, size in sizes.items())
+    print(f"wrote {args.out}: {files} ({sum(sizes.values()) / 1e6:.2f} MB)")
     return 0
 
 

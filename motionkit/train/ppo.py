@@ -49,6 +49,29 @@ class ActorCritic(nn.Module):
         return mean, jnp.broadcast_to(log_std, mean.shape), value
 
 
+class Actor(nn.Module):
+    """The actor of `ActorCritic` alone: its parameters (`actor_params`) give the same mean.
+    A policy that acts (`motionkit.train.play`) needs nothing else."""
+
+    actions: int
+    hidden: Sequence[int]
+
+    @nn.compact
+    def __call__(self, obs: jax.Array) -> jax.Array:
+        x = obs
+        for width in self.hidden:
+            x = nn.elu(nn.Dense(width)(x))
+        return nn.Dense(self.actions)(x)
+
+
+def actor_params(params: dict, hidden: Sequence[int]) -> dict:
+    """The actor's part of `ActorCritic` parameters ({"params": ...}): its hidden layers and
+    the mean layer (the first len(hidden) + 1 Dense layers, made first), without the critic
+    and the action std."""
+    layers = params["params"]
+    return {"params": {f"Dense_{k}": layers[f"Dense_{k}"] for k in range(len(hidden) + 1)}}
+
+
 def log_prob(mean: jax.Array, log_std: jax.Array, action: jax.Array) -> jax.Array:
     z = (action - mean) / jnp.exp(log_std)
     return jnp.sum(-0.5 * z**2 - log_std - 0.5 * LOG_2PI, axis=-1)

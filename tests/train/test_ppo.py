@@ -118,3 +118,14 @@ def test_fixed_std_and_the_initial_mean() -> None:
     np.testing.assert_allclose(np.asarray(log_std), -2.9, rtol=1e-6)
     # zero input: the mean is the output bias, the rest action
     np.testing.assert_allclose(np.asarray(mean), [[0.2, -0.5, -1.0]] * 2, atol=1e-6)
+
+
+@pytest.mark.parametrize("learn_std", [False, True])
+def test_the_actor_alone_gives_the_actor_critics_mean(learn_std: bool) -> None:
+    net = ppo.ActorCritic(5, (16, 8), (12,), 0.5, learn_std, (0.1, 0.2, 0.3, 0.4, 0.5))
+    params = net.init(jax.random.key(0), jnp.zeros((1, 7)))
+    actor = ppo.actor_params(params, (16, 8))
+    assert set(actor["params"]) == {"Dense_0", "Dense_1", "Dense_2"}  # no critic, no log_std
+    obs = jax.random.normal(jax.random.key(1), (4, 7))
+    mean, _, _ = net.apply(params, obs)
+    np.testing.assert_array_equal(ppo.Actor(5, (16, 8)).apply(actor, obs), mean)

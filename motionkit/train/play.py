@@ -1,0 +1,368 @@
+"""A policy rolled out on the CPU with plain MuJoCo, from the standing pose toward waypoints, as
+a motion clip.
+
+The physics is `mujoco.mj_step` on the environment's own model (its MJCF, options and substeps
+per control step). The observation, the PD targets and the jets are the environment's own
+functions (`Env.observe`, `Env.feet_down`, `Env.joint_targets`, `Env.jets`), jitted for one
+robot and fed the MuJoCo state: the arrays they read (FIELDS) replace those of an MJX Data made
+once by `mjx.put_data` (converting the whole state every step costs about 5 ms, copying five
+arrays a few microseconds). tests/train/test_play.py checks the loop against `Env.step`.
+
+Waypoints are fed as in training: the current one relative to the base (the observation's last
+block), reached when the base comes within `waypoint_radius`; the next one follows. Unlike in
+training a waypoint has no deadline: it stays until reached. The run ends after the last
+waypoint (not with a watcher: a live viewer may place more), at a fall (the base lower than
+`min_base_height` above the terrain, or a non-finite state) or after `seconds`.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+
+from motionkit.dataset import write
+from motionkit.errors import TrainError
+from motionkit.outputs import check_out, claim_out
+from motionkit.robot import Robot
+from motionkit.train import terrain as terrain_lib
+from motionkit.train import waypoints
+from motionkit.train.env import Env
+from motionkit.train.evaluate import first_episode
+from motionkit.train.mjx import mjx
+from motionkit.train.policy import Policy, policy_env
+
+FIELDS = ("qpos", "qvel", "xpos", "xmat", "site_xpos")  # what Env.observe and feet_down read
+FLYING_SHARE = 0.5  # a way with more steps airborne than this was flown
+
+
+class Player:
+    """One robot of `env` stepped by plain MuJoCo at the environment's control rate."""
+
+    def __init__(self, env: Env) -> None:
+        self.env = env
+        self.model = env.mj_model
+        self.data = mujoco.MjData(self.model)
+        self.substeps = env.config.substeps
+        template = mjx.put_data(self.model, self.data)
+
+        def observe(
+            fields: dict[str, jax.Array], thrust: jax.Array, target: jax.Array
+        ) -> tuple[jax.Array, jax.Array, jax.Array]:
+            # MuJoCo keeps rotation matrices flat (9,), MJX as (3, 3)
+            shaped = {k: v.reshape(getattr(template, k).shape) for k, v in fields.items()}
+            data = template.replace(**shaped)
+            base = data.qpos[:3]
+            lift = base[2] - terrain_lib.height_at(env.terrain, base[:2])
+            return env.observe(data, thrust, target), env.feet_down(data), lift
+
+        def control(jet: Any, thrust: jax.Array, action: jax.Array) -> tuple[Any, ...]:
+            action = jnp.clip(action, -1.0, 1.0)  # as Env.step
+            jet, thrust = env.jets.step(jet, thrust, action[env.num_joints :])
+            ctrl = jnp.concatenate([env.joint_targets(action[: env.num_joints]), thrust])
+            return jet, thrust, ctrl
+
+        self._observe, self._control = jax.jit(observe), jax.jit(control)
+        self.reset(*self.standing())
+
+    def standing(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(qpos, qvel, thrust) of the standing pose: the keyframe at the environment's standing
+        posture (no joint noise), at rest, the jets at the low end of initial_thrust."""
+        env = self.env
+        qpos = self.model.key("stand").qpos.copy()
+        qpos[7:] = np.asarray(env.default_q)
+        thrust = np.minimum(env.config.initial_thrust[0], np.asarray(env.t_max))
+        return qpos, np.zeros(self.model.nv), thrust
+
+    def reset(self, qpos: np.ndarray, qvel: np.ndarray, thrust: np.ndarray) -> None:
+        """Start at this state (as `Env.reset`: the keyframe's other values, the link positions
+        of `qpos`, the jet model resting at `thrust`)."""
+        model, data = self.model, self.data
+        mujoco.mj_resetDataKeyframe(model, data, model.key("stand").id)
+        data.qpos[:], data.qvel[:] = qpos, qvel
+        mujoco.mj_kinematics(model, data)
+        self.thrust = jnp.asarray(thrust, jnp.float32)
+        self.jet = self.env.jets.state_at(self.thrust)
+
+    def observe(self, target: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        """(observation, feet on the ground, base height above the terrain) now, pursuing
+        `target`."""
+        fields = {name: getattr(self.data, name).astype(np.float32) for name in FIELDS}
+        obs, feet, lift = self._observe(fields, self.thrust, np.asarray(target, np.float32))
+        return np.asarray(obs), np.asarray(feet), float(lift)
+
+    def control(self, action: Any) -> tuple[Any, jax.Array, jax.Array]:
+        """(jet model state, thrust, ctrl) after `action` from the state now (as `Env.step`:
+        the action clipped, the jets stepped, the PD targets mapped); changes nothing."""
+        return self._control(self.jet, self.thrust, action)
+
+    def step(self, action: Any) -> None:
+        """One control step: jets and PD targets from `action`, then the environment's
+        substeps of MuJoCo physics."""
+        self.jet, self.thrust, ctrl = self.control(action)
+        self.data.ctrl[:] = np.asarray(ctrl)
+        mujoco.mj_step(self.model, self.data, nstep=self.substeps)
+
+
+@dataclass
+class Leg:
+    """The way to one waypoint."""
+
+    target: np.ndarray  # (3,) world frame [m]
+    start: float = 0.0  # s, when it became the current waypoint
+    reached: float | None = None  # s
+    steps: int = 0
+    airborne: int = 0  # steps after which both soles were off the ground
+    thrust: float = 0.0  # sum over the steps of the mean T / T_max
+
+    @property
+    def airborne_share(self) -> float:
+        return self.airborne / self.steps if self.steps else 0.0
+
+    @property
+    def thrust_share(self) -> float:
+        return self.thrust / self.steps if self.steps else 0.0
+
+    @property
+    def how(self) -> str:
+        return "flying" if self.airborne_share > FLYING_SHARE else "walking"
+
+
+@dataclass
+class Played:
+    """What a rollout did: its frames (one per control step), the ways to the waypoints, how
+    it ended, and the wall time it took (compilation excluded)."""
+
+    control_hz: float
+    legs: list[Leg]
+    qpos: list[np.ndarray] = field(default_factory=list)
+    thrust: list[np.ndarray] = field(default_factory=list)
+    target: list[np.ndarray] = field(default_factory=list)  # pursued during the step
+    feet_down: list[np.ndarray] = field(default_factory=list)  # after the step
+    end: str = "at the time limit"  # how the run ended, after "ended"
+    falls: int = 0
+    wall_seconds: float = 0.0
+    compile_seconds: float = 0.0
+
+    @property
+    def frames(self) -> int:
+        return len(self.qpos)
+
+    @property
+    def seconds(self) -> float:
+        return self.frames / self.control_hz
+
+    @property
+    def real_time_factor(self) -> float:
+        return self.seconds / self.wall_seconds if self.wall_seconds > 0 else float("inf")
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """Time-major (T, 1, ...) arrays shaped like an evaluation's, for `first_episode`."""
+        rows = {
+            "qpos": self.qpos,
+            "thrust": self.thrust,
+            "target": self.target,
+            "feet_down": self.feet_down,
+        }
+        out = {name: np.stack(value)[:, None] for name, value in rows.items()}
+        return out | {"done": np.zeros((self.frames, 1), bool)}
+
+
+FrameWatcher = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], Sequence[np.ndarray]]
+
+
+def roll_out(
+    player: Player,
+    act: Callable[[Any], Any],
+    route: Sequence[np.ndarray],
+    seconds: float,
+    *,
+    watch: FrameWatcher | None = None,
+    real_time: bool = False,
+) -> Played:
+    """Roll `act` (observation -> action) out from the player's state toward the waypoints of
+    `route` for at most `seconds`. `watch(qpos, thrust, feet_down, target)`, called after every
+    control step, returns waypoints to add (a live viewer's); with a watcher the run does not
+    end after the last waypoint. `real_time` paces the steps with the wall clock."""
+    env, config = player.env, player.env.config
+    hz = config.control_hz
+    legs = [Leg(np.asarray(p, float)) for p in route]
+    if not legs:
+        raise TrainError("a rollout needs at least one waypoint")
+    played = Played(hz, legs)
+    index = 0  # the leg pursued; len(legs) once the last is reached
+    t_max = np.asarray(env.t_max)
+
+    def current() -> np.ndarray:
+        return legs[min(index, len(legs) - 1)].target
+
+    tick = time.perf_counter()
+    obs, _, _ = player.observe(current())
+    jax.block_until_ready((act(obs), player.control(env.rest_action)))  # compiled, not timed
+    played.compile_seconds = time.perf_counter() - tick
+    start = time.perf_counter()
+    for k in range(round(seconds * hz)):
+        target = current()
+        player.step(act(obs))
+        qpos = player.data.qpos
+        if not (np.isfinite(qpos).all() and np.isfinite(player.data.qvel).all()):
+            played.falls, played.end = 1, f"with a fall at {(k + 1) / hz:.2f} s (non-finite state)"
+            break
+        now = (k + 1) / hz
+        thrust = np.asarray(player.thrust)
+        played.qpos.append(qpos.copy())
+        played.thrust.append(thrust)
+        played.target.append(target)
+        leg = legs[index] if index < len(legs) else None
+        if leg is not None:
+            leg.steps += 1
+            leg.thrust += float(np.mean(thrust / t_max))
+            if bool(waypoints.reached(qpos[:3], target, config.waypoint_radius)):
+                leg.reached, index = now, index + 1
+                if index < len(legs):
+                    legs[index].start = now
+        obs, feet, lift = player.observe(current())
+        played.feet_down.append(feet)
+        if leg is not None and not feet.any():
+            leg.airborne += 1
+        if lift < config.min_base_height:
+            played.falls, played.end = 1, f"with a fall at {now:.2f} s"
+            break
+        if watch is not None:
+            for point in watch(qpos, thrust, feet, current()):
+                legs.append(Leg(np.asarray(point, float), start=now))
+        elif index == len(legs):
+            played.end = f"after the last waypoint, at {now:.2f} s"
+            break
+        if real_time:
+            time.sleep(max(0.0, start + now - time.perf_counter()))
+    played.wall_seconds = time.perf_counter() - start
+    return played
+
+
+def random_route(env: Env, count: int, seed: int, start: np.ndarray) -> list[np.ndarray]:
+    """`count` waypoints drawn as the environment draws them (ground and air, air_probability
+    of them in the air), each following the one before, the first following `start`."""
+    previous = jnp.asarray(start, jnp.float32)
+    route = []
+    for key in jax.random.split(jax.random.key(seed), count):
+        previous = waypoints.next_waypoint(
+            key, previous, env.config, env.terrain, env.route_bound, env.config.air_probability
+        )
+        route.append(np.asarray(previous, float))
+    return route
+
+
+def parse_waypoints(text: str) -> list[np.ndarray]:
+    """'x,y,z x,y,z ...' [m] as points; a TrainError naming the first bad token."""
+    tokens = text.split()
+    if not tokens:
+        raise TrainError("--waypoints is empty: expected 'x,y,z x,y,z ...' in metres")
+    points = []
+    for token in tokens:
+        try:
+            values = [float(part) for part in token.split(",")]
+        except ValueError:
+            values = []
+        if len(values) != 3 or not np.isfinite(values).all():
+            raise TrainError(
+                f"--waypoints: {token!r} is not a waypoint; expected x,y,z (three finite "
+                "numbers in metres, no spaces), waypoints separated by spaces"
+            )
+        points.append(np.array(values))
+    return points
+
+
+def write_clip(path: Path, played: Played, robot: Robot, meta: dict[str, Any]) -> Path:
+    """The rollout as a motion clip (the evaluation rollouts' format, its waypoints in the
+    metadata); a TrainError when it is shorter than two frames."""
+    trajectory = None
+    if played.frames >= 2:
+        trajectory = first_episode(played.arrays(), robot, played.control_hz, meta)
+    if trajectory is None:
+        raise TrainError(f"the rollout lasted {played.frames} step(s) ({played.end}): no clip")
+    return write(path, trajectory, robot)
+
+
+def route_for(
+    env: Env, start: np.ndarray, given: Sequence[np.ndarray] | None, count: int, seed: int
+) -> list[np.ndarray]:
+    """The waypoints given, or a random route of `count` from `start` (seeded)."""
+    if given is not None:
+        return [np.asarray(p, float) for p in given]
+    if count < 1:
+        raise TrainError(f"--random-route {count}: at least 1 waypoint")
+    return random_route(env, count, seed, start)
+
+
+def play(
+    policy: Policy,
+    robot: Robot,
+    path: Path,
+    *,
+    route: Sequence[np.ndarray] | None = None,
+    count: int = 4,
+    seed: int = 0,
+    seconds: float = 20.0,
+    live: Callable[[Env, list[np.ndarray]], FrameWatcher] | None = None,
+) -> tuple[Played, list[np.ndarray]]:
+    """Roll `policy` out for `robot` from the standing pose toward `route` (None: a random
+    route of `count` waypoints drawn with `seed`) and write the clip to `path` (whose folder
+    check_out/claim_out vouch for; nothing is written on an error). `live(env, route)` makes a
+    watcher (a viewer) that sees each step in real time and may add waypoints."""
+    if not (np.isfinite(seconds) and seconds > 0):
+        raise TrainError(f"--seconds {seconds}: expected a duration > 0")
+    check_out(path.parent, [path.name], TrainError)
+    env = policy_env(policy, robot)
+    player = Player(env)
+    drawn = route is None
+    route = route_for(env, player.data.qpos[:3].copy(), route, count, seed)
+    watch = None if live is None else live(env, route)
+    played = roll_out(
+        player, policy.act_fn(), route, seconds, watch=watch, real_time=watch is not None
+    )
+    meta = {
+        "clip": path.stem,
+        "policy": str(policy.source),
+        "seconds": seconds,
+        "seed": seed if drawn else None,
+        "end": played.end,
+    }
+    claim_out(path.parent, [path.name], TrainError)
+    write_clip(path, played, robot, meta)
+    return played, route
+
+
+def report(played: Played) -> list[str]:
+    """What a rollout did, in lines: each waypoint (when and how reached, thrust), how it
+    ended, falls and the real-time factor."""
+    lines = []
+    for k, leg in enumerate(played.legs, 1):
+        x, y, z = leg.target
+        head = f"waypoint {k} ({x:.2f}, {y:.2f}, {z:.2f}) m: "
+        if not leg.steps:
+            lines.append(head + "not pursued")
+            continue
+        way = (
+            f"{leg.how} (airborne {100 * leg.airborne_share:.0f} % of the way), thrust "
+            f"{100 * leg.thrust_share:.1f} % of T_max"
+        )
+        if leg.reached is None:
+            lines.append(head + f"not reached in {leg.steps / played.control_hz:.2f} s, {way}")
+        else:
+            took = leg.reached - leg.start
+            lines.append(head + f"reached at {leg.reached:.2f} s (after {took:.2f} s), {way}")
+    lines.append(f"ended {played.end}; falls: {played.falls}")
+    lines.append(
+        f"simulated {played.seconds:.2f} s in {played.wall_seconds:.2f} s of wall time: "
+        f"{played.real_time_factor:.1f}x real time (compilation, {played.compile_seconds:.1f} s, "
+        "not counted)"
+    )
+    return lines
