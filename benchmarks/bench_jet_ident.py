@@ -111,7 +111,7 @@ def family_table(config: JetIdentConfig, names: list[str], trials: int) -> None:
     warm = config.train.warmup
     header = (
         f"{'engine':<16}{'seed':>5} {'plant':<10}{'prior, dead time':<20}{'LSTM MAE/RMSE':>15}"
-        f"{'grey box':>13}{'floor':>13}{'ratio':>7}{'chosen':>9}{'fit s':>7}"
+        f"{'grey box':>13}{'floor':>13}{'ratio':>7}{'chosen':>9}{'fit s':>7}{'low %':>10}"
     )
     print(header)
     verdicts = []
@@ -128,6 +128,8 @@ def family_table(config: JetIdentConfig, names: list[str], trials: int) -> None:
         floor = noise_floor([held])
         lstm, grey = metrics[LSTM], metrics[GREY_BOX]
         ratio = lstm.mae / floor[0]
+        low = 0.2 * np.percentile(train.log.thrust, 99.9)  # the lowest fifth of the range
+        shares = f"{np.mean(train.log.thrust < low):.0%}/{np.mean(held.thrust < low):.0%}"
         ok = (
             ratio <= 1.3
             and lstm.mae <= grey.mae
@@ -142,11 +144,12 @@ def family_table(config: JetIdentConfig, names: list[str], trials: int) -> None:
             f"{result.training.prior + f', {result.training.delay * held.dt * 1e3:.0f} ms':<20}"
             f"{lstm.mae:7.3f} /{lstm.rmse:6.3f}{grey.mae:6.3f} /{grey.rmse:5.2f}"
             f"{floor[0]:6.3f} /{floor[1]:5.2f}{ratio:7.2f}{selected(result.metrics):>9}"
-            f"{fit_s:7.0f}  {verdict(ok)}",
+            f"{fit_s:7.0f}{shares:>10}  {verdict(ok)}",
             flush=True,
         )
     print(f"all engines: {verdict(all(verdicts))} (LSTM MAE <= 1.3 x floor, <= grey box, "
           "< 4.995 / 8.061 N, fit <= 300 s)")  # fmt: skip
+    print("low %: the training and held-out logs' time below a fifth of the training log's top")
 
 
 def thrust_step_cost(params: LSTMThrust, batch: int) -> float:

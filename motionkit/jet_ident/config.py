@@ -169,13 +169,10 @@ class TrainConfig:
     its own thrust; the loss is the mean squared free-run error (normalised)."""
 
     warmup: int = 50  # samples
-    window: int = 1000  # samples of free-run per window (gradient truncated at its start)
-    batch: int = 16  # windows per step
+    window: int = 300  # samples of free-run per window (gradient truncated at its start)
+    batch: int = 32  # windows per step
     # then, from the best so far, windows this long (as many samples per step; 0: none)
-    long_window: int = 0
-    # windows drawn so that each of this many bands of their mean thrust (equal widths over the
-    # training range) is as likely as the others; 0 or 1: uniformly over the log
-    thrust_bands: int = 8
+    long_window: int = 1000
     learning_rate: float = 3e-3  # Adam, cosine-decayed to 5 % over max_steps
     max_steps: int = 3000
     clip_norm: float = 1.0  # gradient clipping (global norm)
@@ -189,7 +186,7 @@ class TrainConfig:
     def __post_init__(self) -> None:
         check(self, JetIdentError, ">= 1", "warmup", "window", "batch", "max_steps")
         check(self, JetIdentError, ">= 1", "eval_every", "patience", "validation_blocks")
-        check(self, JetIdentError, ">= 0", "thrust_bands", "long_window")
+        check(self, JetIdentError, ">= 0", "long_window")
         check(self, JetIdentError, "> 0", "learning_rate", "clip_norm", "max_minutes")
         check(self, JetIdentError, "in (0, 1)", "validation_fraction")
         check(self, JetIdentError, ">= 0", "seed")

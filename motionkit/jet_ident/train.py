@@ -199,15 +199,16 @@ def _train(
     progress: Callable[[str], None] | None,
 ) -> TrainResult:
     """Adam on free-run windows of `config.window` samples, then (with `long_window`) on
-    windows of that length from the best so far, as many samples per step; each phase stops
+    windows of that length, from the best so far, as many samples per step; each phase stops
     early on its own, the time limit ends both."""
     start = time.perf_counter()
     prior, delay = start_prior
     warmup = config.warmup
     phases = [(config.window, config.batch)]
-    if config.long_window > config.window:
-        long_batch = max(1, round(config.batch * config.window / config.long_window))
-        phases.append((config.long_window, long_batch))
+    long_window = min(config.long_window, min(len(t) for t, _ in train) - warmup)
+    if long_window > config.window:  # as long as the shortest training part allows
+        long_batch = max(1, round(config.batch * config.window / long_window))
+        phases.append((long_window, long_batch))
 
     def loss_fn(variables: dict[str, Any], thrust: jax.Array, throttle: jax.Array) -> jax.Array:
         simulated = rollout(hidden, variables, norm, dt, thrust, throttle, warmup)
@@ -222,18 +223,18 @@ def _train(
     history: list[dict[str, float]] = [
         {"step": 0, "loss": float("nan"), "val_mae": mae, "val_rmse": rmse, "seconds": 0.0}
     ]
+    schedule = optax.cosine_decay_schedule(config.learning_rate, config.max_steps, alpha=0.05)
+    optimizer = optax.chain(optax.clip_by_global_norm(config.clip_norm), optax.adam(schedule))
+
+    @jax.jit
+    def update(variables: Any, opt_state: Any, thrust: jax.Array, throttle: jax.Array) -> Any:
+        loss, grads = jax.value_and_grad(loss_fn)(variables, thrust, throttle)
+        updates, opt_state = optimizer.update(grads, opt_state, variables)
+        return optax.apply_updates(variables, updates), opt_state, loss
+
     step, stopped = 0, ""
-    for window, batch in phases:
-        schedule = optax.cosine_decay_schedule(config.learning_rate, config.max_steps, alpha=0.05)
-        optimizer = optax.chain(optax.clip_by_global_norm(config.clip_norm), optax.adam(schedule))
-
-        @jax.jit
-        def update(variables: Any, opt_state: Any, thrust: jax.Array, throttle: jax.Array) -> Any:
-            loss, grads = jax.value_and_grad(loss_fn)(variables, thrust, throttle)
-            updates, opt_state = optimizer.update(grads, opt_state, variables)  # noqa: B023
-            return optax.apply_updates(variables, updates), opt_state, loss
-
-        draw = WindowSampler(train, warmup + window, config.thrust_bands, config.seed + step)
+    for window, batch in phases:  # each from the best so far, with a fresh optimiser
+        draw = WindowSampler(train, warmup + window, config.seed + step)
         variables = best[1]
         opt_state = optimizer.init(variables)
         losses: list[float] = []
@@ -272,43 +273,21 @@ def _train(
 
 
 class WindowSampler:
-    """Random training windows of `length` samples: (thrust, throttle), each [batch, length].
+    """Random training windows of `length` samples, uniformly over the segments: (thrust,
+    throttle), each [batch, length]."""
 
-    With `bands` > 1 every band of the windows' mean thrust (`bands` of equal width over the
-    training range) is drawn as often as the others, and windows uniformly within a band: one
-    log of an engine often spends little of its time in part of its range (near idle, say),
-    and balanced draws keep the fit from neglecting it."""
-
-    def __init__(self, train: Sequence[Segment], length: int, bands: int, seed: int) -> None:
+    def __init__(self, train: Sequence[Segment], length: int, seed: int) -> None:
         self.train, self.length = train, length
         self.rng = np.random.default_rng(seed)
         self.starts = np.array(  # (segment, offset) of every window
             [(i, o) for i, (t, _) in enumerate(train) for o in range(len(t) - length + 1)]
         )
-        self.chances = window_chances(train, self.starts, length, bands) if bands > 1 else None
 
     def __call__(self, batch: int) -> tuple[np.ndarray, np.ndarray]:
-        if self.chances is None:
-            picks = self.starts[self.rng.integers(0, len(self.starts), batch)]
-        else:
-            picks = self.starts[self.rng.choice(len(self.starts), batch, p=self.chances)]
+        picks = self.starts[self.rng.integers(0, len(self.starts), batch)]
         span = self.length
         thrust = np.stack([self.train[w][0][o : o + span] for w, o in picks])
         return thrust, np.stack([self.train[w][1][o : o + span] for w, o in picks])
-
-
-def window_chances(
-    train: Sequence[Segment], starts: np.ndarray, length: int, bands: int
-) -> np.ndarray:
-    """The chance of drawing each window (segment, offset) of `starts` (see WindowSampler)."""
-    if bands <= 1:
-        return np.full(len(starts), 1.0 / len(starts))
-    sums = [np.concatenate([[0.0], np.cumsum(t)]) for t, _ in train]
-    means = np.array([(sums[i][o + length] - sums[i][o]) / length for i, o in starts])
-    edges = np.linspace(means.min(), means.max(), bands + 1)[1:-1]
-    band = np.searchsorted(edges, means, side="right")
-    weights = 1.0 / np.bincount(band, minlength=bands)[band]
-    return weights / weights.sum()
 
 
 def validate(params: LSTMThrust, segments: Sequence[Segment], warmup: int) -> tuple[float, float]:

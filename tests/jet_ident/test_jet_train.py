@@ -22,11 +22,17 @@ from motionkit.jet_ident.train import (
     split_logs,
     train_lstm,
     validate,
-    window_chances,
 )
 
 TINY = TrainConfig(
-    warmup=10, window=60, batch=8, learning_rate=1e-2, max_steps=150, eval_every=50, patience=5
+    warmup=10,
+    window=60,
+    long_window=0,
+    batch=8,
+    learning_rate=1e-2,
+    max_steps=150,
+    eval_every=50,
+    patience=5,
 )
 
 
@@ -67,7 +73,9 @@ def test_a_short_log_of_an_engine_of_the_other_structure() -> None:
     bench = replace(ENGINES["spool"], duration_s=180.0)
     run = synthetic_run(bench, 3)
     held = synthetic_run(replace(bench, duration_s=60.0), 103, ambient_c=run.ambient_c).log
-    train = TrainConfig(warmup=20, window=150, batch=16, max_steps=300, eval_every=50, patience=4)
+    train = TrainConfig(  # short windows only (a quick test)
+        warmup=20, window=150, long_window=0, batch=16, max_steps=300, eval_every=50, patience=4
+    )
     result = identify([run.log], JetIdentConfig(model=ModelConfig(hidden=16), train=train))
     metrics, _ = evaluate(result.models(), [held], 20)
     lstm, grey = metrics[LSTM], metrics[GREY_BOX]
@@ -88,22 +96,29 @@ def test_blocks_spread_validation_over_the_log() -> None:
     assert len(head[0]) == 800 and tail[0][0] == 8.0
 
 
-def test_windows_are_drawn_evenly_over_the_thrust_bands() -> None:
-    # 900 samples at 20 N, then 100 at 200 N; windows of 10: 891 lie wholly low, 91 wholly
-    # high, the 9 across the step have means 38, 56, ..., 182 N (two bands split at 110 N:
-    # 4 of them below, 5 from it)
-    thrust = np.r_[np.full(900, 20.0), np.full(100, 200.0)]
-    segment = (thrust, np.zeros(1000))
-    sampler = WindowSampler([segment], 10, 2, seed=0)
-    means = np.array([thrust[o : o + 10].mean() for _, o in sampler.starts])
-    low = means < 110
-    assert len(means) == 991 and low.sum() == 895
-    np.testing.assert_allclose(sampler.chances[low], 0.5 / 895)
-    np.testing.assert_allclose(sampler.chances[~low], 0.5 / 96)
-    np.testing.assert_allclose(window_chances([segment], sampler.starts, 10, 0), 1 / 991)
-    drawn, throttle = sampler(4000)
-    assert drawn.shape == throttle.shape == (4000, 10)
-    assert abs(np.mean(drawn.mean(axis=1) > 110) - 0.5) < 0.03  # about half from the 10 %
+def test_windows_are_slices_of_the_segments() -> None:
+    thrust = np.arange(100.0)
+    sampler = WindowSampler([(thrust, thrust + 1000), (thrust[:20], thrust[:20])], 15, seed=0)
+    assert len(sampler.starts) == 86 + 6  # windows of 15 in 100 and in 20 samples
+    drawn, throttle = sampler(500)
+    assert drawn.shape == throttle.shape == (500, 15)
+    np.testing.assert_array_equal(np.diff(drawn, axis=1), 1.0)  # consecutive samples
+    first = throttle[:, 0] >= 1000
+    np.testing.assert_array_equal(throttle[first] - 1000, drawn[first])
+    np.testing.assert_array_equal(throttle[~first], drawn[~first])
+    assert drawn[~first].max() <= 19 and 0 < np.mean(~first) < 0.15  # 6 of 92 windows
+
+
+def test_long_windows_follow_from_the_best_of_the_short() -> None:
+    logs = [synthetic_run(BenchConfig(duration_s=90.0), 1).log]
+    config = replace(TINY, max_steps=100, long_window=120)
+    lines: list[str] = []
+    result = train_lstm(logs, ModelConfig(hidden=8, priors=("none",)), config, lines.append)
+    steps = [h["step"] for h in result.history]
+    assert steps == [0, 50, 100, 101 + 49, 101 + 99]  # the long phase counts on
+    assert [" window 60 " in x for x in lines[:4]] == [True, True, False, False]
+    assert all(" window 120 " in x for x in lines[2:4])
+    assert result.rmse == min(h["val_rmse"] for h in result.history)
 
 
 def test_logs_must_share_the_rate_and_be_long_enough() -> None:
