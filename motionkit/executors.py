@@ -30,6 +30,7 @@ TaskFn = Callable[[Any, Any], Any]  # fn(item, shared) -> result, importable by 
 
 CONNECT_S = 10.0  # how long the address may take to accept a connection
 ATTEMPTS = 2  # a task whose worker dies is run once more (Ray: max_retries=1)
+CONNECT_ATTEMPTS = 2  # a refused client handshake is tried once more
 # the settings a Ray worker takes from the driver's environment (not MOTIONKIT_CACHE: a path
 # of this machine; each node keeps its own cache)
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
@@ -224,16 +225,7 @@ def _ray_session(address: str, error: type[MotionkitError]) -> Iterator[int]:
     owned = not ray.is_initialized()
     if owned:
         _reachable(address, error)  # ray.init waits minutes on an address nothing listens at
-        try:
-            ray.init(
-                address=address,
-                runtime_env={"env_vars": forwarded_environment()},
-                logging_level=logging.WARNING,
-                log_to_driver=True,
-            )
-        except Exception as exc:  # ConnectionError, ValueError, TimeoutError, gRPC errors
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            raise error(f"--cluster {address}: cannot connect to a Ray cluster ({first})") from exc
+        _connect(address, error)
     try:
         cpus = int(ray.cluster_resources().get("CPU", 0))
         if cpus < 1:
@@ -242,6 +234,38 @@ def _ray_session(address: str, error: type[MotionkitError]) -> Iterator[int]:
     finally:
         if owned:
             ray.shutdown()
+
+
+def _connect(address: str, error: type[MotionkitError]) -> None:
+    """ray.init, tried CONNECT_ATTEMPTS times when the client server refuses the handshake (its
+    per-client server may start too slowly on a busy head); a failed try leaves no half-made
+    connection behind, which would make every later ray.init in the process fail."""
+    import ray
+
+    for attempt in range(1, CONNECT_ATTEMPTS + 1):
+        try:
+            ray.init(
+                address=address,
+                runtime_env={"env_vars": forwarded_environment()},
+                logging_level=logging.WARNING,
+                log_to_driver=True,
+            )
+            return
+        except Exception as exc:  # ConnectionError, ValueError, TimeoutError, gRPC errors
+            ray.shutdown()
+            if isinstance(exc, ConnectionAbortedError) and attempt < CONNECT_ATTEMPTS:
+                continue
+            reason = _reason(exc)
+            raise error(f"--cluster {address}: cannot connect to a Ray cluster ({reason})") from exc
+
+
+def _reason(exc: BaseException) -> str:
+    """One line for an exception: its first, or its last where the first only announces the
+    rest (Ray's client puts the server's traceback after "Initialization failure from server:")."""
+    lines = [line.strip() for line in str(exc).strip().splitlines() if line.strip()]
+    if not lines:
+        return type(exc).__name__
+    return lines[-1] if lines[0].endswith(":") else lines[0]
 
 
 def _reachable(address: str, error: type[MotionkitError]) -> None:

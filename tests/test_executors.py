@@ -1,6 +1,7 @@
 """The executors without Ray: local processes yield every result, run a task whose worker died
-once more and report it lost after a second death; --cluster addresses are checked, and a
---cluster without the [cluster] extra names it. Task keys in an output folder's manifest."""
+once more and report it lost after a second death; --cluster addresses are checked, a
+--cluster without the [cluster] extra names it, and a refused Ray handshake is tried again
+and leaves no half-made connection. Task keys in an output folder's manifest."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ import pytest
 from motionkit.cli import main
 from motionkit.errors import RetargetError
 from motionkit.executors import InProcess, Processes, cluster_address, open_executor
+from motionkit.executors import _ray_session as ray_session
 from motionkit.outputs import (
     MANIFEST,
     claim_out,
@@ -71,6 +73,51 @@ def test_cluster_without_its_extra_is_one_line(tmp_path: Path, monkeypatch, caps
         "pip install 'motionkit[cluster]'\n"
     )
     assert not out.exists()
+
+
+class RefusingRay:
+    """A stand-in for the ray module whose client handshake is refused `refusals` times, as a
+    busy head's client server refuses it (the server's traceback after the first line)."""
+
+    def __init__(self, refusals: int) -> None:
+        self.refusals, self.calls = refusals, []
+
+    def init(self, **kwargs) -> None:
+        self.calls.append("init")
+        if self.calls.count("init") <= self.refusals:
+            raise ConnectionAbortedError(
+                "Initialization failure from server:\nTraceback (most recent call last):\n"
+                "  ...\nRuntimeError: Proxy failed to Connect to backend!\n"
+            )
+
+    def shutdown(self) -> None:
+        self.calls.append("shutdown")
+
+    def is_initialized(self) -> bool:
+        return False
+
+    def cluster_resources(self) -> dict[str, float]:
+        return {"CPU": 3.0}
+
+
+@pytest.mark.parametrize("refusals", [1, 2])
+def test_a_refused_ray_handshake_is_tried_again(refusals: int, monkeypatch) -> None:
+    ray = RefusingRay(refusals)
+    monkeypatch.setitem(sys.modules, "ray", ray)
+    monkeypatch.setattr("motionkit.executors._reachable", lambda address, error: None)
+    if refusals == 1:
+        with ray_session("ray://head:10001", RetargetError) as cpus:
+            assert cpus == 3
+        assert ray.calls == ["init", "shutdown", "init", "shutdown"]
+        return
+    with pytest.raises(RetargetError) as caught:
+        with ray_session("ray://head:10001", RetargetError):
+            pass
+    assert str(caught.value) == (
+        "--cluster ray://head:10001: cannot connect to a Ray cluster "
+        "(RuntimeError: Proxy failed to Connect to backend!)"
+    )
+    assert ray.calls == ["init", "shutdown", "init", "shutdown"]  # nothing left connected
 
 
 def test_task_keys_in_the_manifest(tmp_path: Path) -> None:

@@ -61,6 +61,9 @@ def ray_cluster(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Cluster]:
         "RAY_USAGE_STATS_ENABLED": "0",
         "MOTIONKIT_CACHE": str(cache),
         "CC": "false",
+        # the client server waits this long for a client's own server process (Ray's default,
+        # 30 s, is too short on 2 cores that another test worker keeps busy)
+        "RAY_CLIENT_SERVER_CHECK_CHANNEL_TIMEOUT_S": "180",
     }
     command = [
         _ray(), "start", "--head", "--block", "--node-ip-address=127.0.0.1", f"--port={gcs}",
