@@ -33,8 +33,15 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 
 @pytest.fixture(autouse=True, scope="session")
 def _private_cache(tmp_path_factory: pytest.TempPathFactory) -> None:
+    """A motionkit cache of this process's own; one XLA compile cache for the whole run (every
+    worker and the commands they start): MJX compiles the same small environment for minutes
+    in many tests, and a program compiled once is loaded by the others."""
+    base = tmp_path_factory.getbasetemp()
+    shared = base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+    (shared / "xla").mkdir(exist_ok=True)
     mp = pytest.MonkeyPatch()
     mp.setenv("MOTIONKIT_CACHE", str(tmp_path_factory.mktemp("motionkit-cache")))
+    mp.setenv("JAX_COMPILATION_CACHE_DIR", str(shared / "xla"))
     yield
     mp.undo()
 

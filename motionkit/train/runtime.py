@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 from motionkit.errors import TrainError
 from motionkit.extras import require
 
@@ -14,11 +16,13 @@ def require_train_extra(what: str = "train") -> None:
 
 
 def enable_compile_cache() -> None:
-    """Keep XLA's compiled programs in the user cache: a resumed run or the next setting of an
-    ablation skips most of the minutes MJX takes to compile."""
+    """Keep XLA's compiled programs in the user cache's jax/ (or at JAX_COMPILATION_CACHE_DIR,
+    JAX's own variable, where it is set: a cache that machines or jobs share): a resumed run
+    or the next setting of an ablation skips most of the minutes MJX takes to compile."""
     import jax
 
     from motionkit.robot import cache_dir
 
-    jax.config.update("jax_compilation_cache_dir", str(cache_dir() / "jax"))
+    folder = os.environ.get("JAX_COMPILATION_CACHE_DIR") or str(cache_dir() / "jax")
+    jax.config.update("jax_compilation_cache_dir", folder)
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 2.0)

@@ -2,6 +2,7 @@
 jitted batch reset/step (MJX compiles for tens of seconds on a CPU), synthetic priors, and a
 persistent XLA compile cache so that a second trainer of the same config loads its programs."""
 
+import os
 from dataclasses import replace
 from pathlib import Path
 
@@ -16,8 +17,9 @@ RECIPES = recipes.ROOT / "train"
 
 
 @pytest.fixture(scope="session", autouse=True)
-def _compile_cache(tmp_path_factory: pytest.TempPathFactory) -> None:
-    jax.config.update("jax_compilation_cache_dir", str(tmp_path_factory.mktemp("xla")))
+def _compile_cache(_private_cache: None) -> None:
+    """The run's shared XLA cache (the root conftest's) for the programs compiled in-process."""
+    jax.config.update("jax_compilation_cache_dir", os.environ["JAX_COMPILATION_CACHE_DIR"])
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 
 
