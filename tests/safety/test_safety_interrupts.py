@@ -23,7 +23,7 @@ from motionkit.robot import ironcub
 pytest.importorskip("placo")
 pytest.importorskip("psutil")
 
-CLIPS = 6
+CLIPS, FRAMES = 8, 2400  # about 2 s a clip: seconds of queued work once the first is written
 
 
 def start(argv: list[str], cwd: Path) -> subprocess.Popen[str]:
@@ -94,7 +94,7 @@ def test_retarget_jobs_2_ends_with_its_workers(
     tmp_path: Path, signum: int, status: int, line: str
 ) -> None:
     for k in range(CLIPS):
-        walk_bvh(tmp_path / "in" / f"walk{k}.bvh", 120)
+        walk_bvh(tmp_path / "in" / f"walk{k}.bvh", FRAMES)
     out = tmp_path / "out"
     process = start(["retarget", "in", "--out", "out", "--jobs", "2"], tmp_path)
     wait_for(lambda: any(out.glob("*.mcap")), process)
@@ -119,7 +119,7 @@ def test_interrupted_pipeline_stage_keeps_the_previous_output(tmp_path: Path) ->
     before = snapshot(out)
 
     for k in range(CLIPS):  # a longer rerun, stopped while it retargets
-        walk_bvh(mocap / f"more{k}.bvh", 120)
+        walk_bvh(mocap / f"more{k}.bvh", FRAMES)
     process = start([*argv, "--force"], tmp_path)
     staging = out / ".staging" / "walk"
     wait_for(lambda: any(staging.glob("*.mcap")), process)
