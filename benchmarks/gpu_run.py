@@ -32,7 +32,7 @@ from typing import Any
 
 from motionkit import recipes
 from motionkit.errors import MotionkitError, TrainError
-from motionkit.outputs import strict_json, write_text_atomic
+from motionkit.outputs import claim_out, strict_json, write_text_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
 CHECKPOINT = "checkpoint.msgpack"
@@ -57,15 +57,18 @@ TRAIN_FIGURES = (
 EPILOG = """\
 Outputs in --out (default runs/gpu/<recipe stem>): the trainer's config.toml, train.csv,
 eval.csv, summary.json, checkpoint.msgpack, rollouts/ and tensorboard/, and
+  checkpoint_slim.msgpack
+                the checkpoint without the optimisers' moments (a third of the size: to
+                carry to another machine or commit; a run resumed from it starts them afresh)
   gpu_run.json  recipe, budget, timestamps, device and versions, iterations, env-steps,
                 throughput (mean env-steps/s after the first iteration of this call), the first
                 iteration's seconds (compilation), train.csv and eval.csv as columns over time
                 (empty cells as null), the final evaluation and the priors summary
   gpu_run.txt   a short summary of the same (also printed at the end)
 
-Without --resume, an --out that holds a checkpoint is refused. With --resume CHECKPOINT the
-file is copied to OUT/checkpoint.msgpack (unless it is that file) and training continues up to
-[run] iterations. The small overrides (--num-envs ...) are for smoke runs on a CPU.
+Without --resume, an --out that holds a checkpoint is refused. With --resume CHECKPOINT (full
+or slim) the file is copied to OUT/checkpoint.msgpack (unless it is that file) and training
+continues up to [run] iterations. The small overrides (--num-envs ...) are for smoke runs on a CPU.
 Errors in the inputs print one line `error: ...` and exit with status 2.
 
   benchmarks/gpu_runs.sh walk_gpu 8 --priors-dir /data/priors
@@ -196,7 +199,7 @@ def prepare_out(out: Path, resume: Path | None) -> None:
             f"--resume {resume}: {out} holds another run ({checkpoint}); resume into a new "
             f"--out, or pass --resume {checkpoint}"
         )
-    out.mkdir(parents=True, exist_ok=True)
+    claim_out(out, [CHECKPOINT], TrainError)  # motionkit's: the trainer may resume from it
     temporary = out / f".{CHECKPOINT}.{os.getpid()}.tmp"
     try:
         shutil.copyfile(resume, temporary)
@@ -330,6 +333,12 @@ def summary_text(report: dict[str, Any], out: Path) -> str:
         f"iteration; first iteration {_fmt(speed.get('first_iteration_seconds'))} s",
         f"training {_fmt(report.get('train_seconds'))} s (compilation and evaluations included)",
     ]
+    sizes = report.get("checkpoint_bytes")
+    if sizes:
+        lines.append(
+            f"checkpoint: {sizes['full'] / 1e6:.1f} MB, slim {sizes['slim'] / 1e6:.1f} MB "
+            "(checkpoint_slim.msgpack: without the optimisers' moments)"
+        )
     if report.get("error"):
         lines.append(f"error: {report['error']}")
     evaluation = report.get("final_evaluation") or {}
@@ -354,6 +363,7 @@ def write_reports(report: dict[str, Any], out: Path) -> str:
 
 
 def run(args: argparse.Namespace, clock: float, started: str) -> int:
+    from motionkit.train.checkpoint import SLIM_NAME, write_slim
     from motionkit.train.config import TrainConfig
 
     recipe = recipes.find("train", args.recipe)
@@ -404,6 +414,8 @@ def run(args: argparse.Namespace, clock: float, started: str) -> int:
     robot = ironcub()
     try:
         summary = train(config, out, robot, resume=args.resume is not None, progress=print_flush)
+        slim = write_slim(out / CHECKPOINT, out / SLIM_NAME)
+        report["checkpoint_bytes"] = {"full": (out / CHECKPOINT).stat().st_size, "slim": slim}
         report["final_evaluation"] = summary.get("eval") or {}
         report["final_evaluation_iteration"] = int(summary["iterations"])
         report["status"] = "ok"

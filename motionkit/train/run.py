@@ -86,13 +86,15 @@ def train(
     run = config.run
     learner, carry = trainer.init(run.seed)
     if resume:  # checked before anything is written
-        learner = trainer.replicate(load_checkpoint(checkpoint, learner))
+        restored, slim = load_checkpoint(checkpoint, learner)
+        learner = trainer.replicate(restored)
         key = jax.random.fold_in(jax.random.key(run.seed), int(learner.iteration))
         carry = trainer.new_carry(*jax.random.split(key))
     claim_out(out, OUTPUTS, TrainError)
     write_text_atomic(out / "config.toml", config.to_toml())
     if resume:
-        progress(f"resumed {out} at iteration {int(learner.iteration)}")
+        moments = " (a slim checkpoint: the optimisers' moments start afresh)" if slim else ""
+        progress(f"resumed {out} at iteration {int(learner.iteration)}{moments}")
     log = MetricsLog(out, run.tensorboard)
     if log.note:
         progress(log.note)

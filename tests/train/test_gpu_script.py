@@ -1,5 +1,5 @@
 """benchmarks/gpu_runs.sh end to end on a CPU: a tiny walk-and-fly run within its budget, its
-strict-JSON report and text summary, a resume from its checkpoint, and the refusals (a missing
+strict-JSON report and text summary, a resume from its slim checkpoint, and the refusals (a missing
 prior folder, a run folder that holds a run). Two training subprocesses, each compiling MJX."""
 
 import importlib.util
@@ -85,7 +85,11 @@ def test_gpu_run_writes_its_figures(first_run: tuple[Path, subprocess.CompletedP
     assert RECIPE in text
     assert "eval_waypoints_per_episode = " in text
     assert text in result.stdout  # printed at the end too
-    assert (out / "checkpoint.msgpack").is_file()
+    sizes = report["checkpoint_bytes"]
+    assert sizes["full"] == (out / "checkpoint.msgpack").stat().st_size
+    assert sizes["slim"] == (out / "checkpoint_slim.msgpack").stat().st_size
+    assert 0.3 < sizes["slim"] / sizes["full"] < 0.36  # Adam's two moments per parameter left out
+    assert f"slim {sizes['slim'] / 1e6:.1f} MB" in text
 
 
 def test_gpu_run_refuses_a_folder_that_holds_a_run(
@@ -100,25 +104,32 @@ def test_gpu_run_refuses_a_folder_that_holds_a_run(
 
 
 def test_gpu_run_resumes_from_its_checkpoint(
-    first_run: tuple[Path, subprocess.CompletedProcess], priors_dir: Path
+    first_run: tuple[Path, subprocess.CompletedProcess], priors_dir: Path, tmp_path: Path
 ) -> None:
+    """From the slim checkpoint, carried elsewhere as from another machine, into a new --out."""
     out, first = first_run
     assert first.returncode == 0, explain(first)
-    checkpoint = out / "checkpoint.msgpack"
+    carried = tmp_path / "carried.msgpack"
+    shutil.copy(out / "checkpoint_slim.msgpack", carried)
+    resumed = tmp_path / "resumed"
     result = gpu_runs(
-        RECIPE, 3, "--priors-dir", priors_dir, "--out", out, *TINY, "--iterations", 3,
-        "--resume", checkpoint,
+        RECIPE, 3, "--priors-dir", priors_dir, "--out", resumed, *TINY, "--iterations", 3,
+        "--resume", carried,
     )  # fmt: skip
     assert result.returncode == 0, explain(result)
-    report = strict_json(out / "gpu_run.json")
+    assert "at iteration 2 (a slim checkpoint: the optimisers' moments start afresh)" in (
+        result.stdout
+    )
+    report = strict_json(resumed / "gpu_run.json")
     assert report["iterations"] == 3
     assert report["start_iteration"] == 2
     assert report["env_steps"] == 3 * STEPS
-    assert report["train_csv"]["iteration"] == [1, 2, 3]
-    assert report["eval_csv"]["iteration"] == [2, 3]
+    assert report["train_csv"]["iteration"] == [3]
+    assert report["eval_csv"]["iteration"] == [3]
     assert report["throughput"]["iterations_this_call"] == 1
     assert report["throughput"]["first_iteration_seconds"] > 0
     assert "eval_waypoints_per_episode" in report["final_evaluation"]
+    assert (resumed / "checkpoint.msgpack").stat().st_size == report["checkpoint_bytes"]["full"]
 
 
 def test_gpu_run_names_a_missing_prior_folder(prior_files: dict[str, Path], tmp_path: Path) -> None:
