@@ -152,8 +152,8 @@ def test_ctrl_c_on_the_cluster_keeps_the_finished_clips_whole(
     listed, no temporary file, no summary."""
     walks = tmp_path / "walks"
     walks.mkdir()
-    for k in range(6):  # 2 CPUs, 2 s a clip: after the first, seconds of work are left
-        (walks / f"long{k}.bvh").write_text(mini_bvh(arms_down(2400 + 10 * k)))
+    for k in range(6):  # 2 CPUs: after the first clip, at least three have not started
+        (walks / f"long{k}.bvh").write_text(mini_bvh(arms_down(300 + 10 * k)))
     out = tmp_path / "out"
     # unbuffered: the "[1/4]" line must arrive when the first clip is written, not at exit
     env = os.environ | {"PYTHONPATH": str(REPO), "PYTHONUNBUFFERED": "1"}
