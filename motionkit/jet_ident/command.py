@@ -62,10 +62,12 @@ def add_commands(stages: argparse._SubParsersAction) -> None:
     fit = commands.add_parser(
         "fit",
         help="fit the LSTM and the baselines to bench logs; write the model",
-        description="Train the LSTM on the first part of every log (free-run windows, "
-        "truncated BPTT, early stopping), fit the second-order grey-box and first-order lag "
-        "baselines by least squares, and compare all three free-running on the last part "
-        "(validation_fraction). Writes DIR/model.npz (LSTM, normalisation, dt, baselines, "
+        description="Train the LSTM on its physical prior (the prior alone first, then both) "
+        "on the training blocks of every log (free-run windows, truncated BPTT, early "
+        "stopping), fit the second-order grey-box and first-order lag baselines by least "
+        "squares, and compare all three free-running on the validation blocks "
+        "(validation_fraction of each log, in validation_blocks spread over it). Writes "
+        "DIR/model.npz (LSTM, normalisation, dt, baselines, "
         "metadata), DIR/config.toml (resolved), DIR/report.json, DIR/report.txt, "
         "DIR/history.csv and DIR/validation.png (needs matplotlib).",
         epilog=EPILOG,

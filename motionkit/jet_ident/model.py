@@ -2,7 +2,7 @@
 
 Inputs are normalised by the training data's means and standard deviations, x = (t, v); the
 LSTM's output is the thrust rate in units of `rate_scale` [N/s]. The prior (the variables'
-"prior", trained with the LSTM) is told by its length:
+"prior", fitted alone first, then trained with the LSTM) is told by its length:
 
 - none: g = LSTM.
 - 6, a first-order engine: g = LSTM + rate_scale q.(1, t, v, t^2, t v, v^2), a rate that
@@ -103,12 +103,13 @@ def zero_carry(hidden: int, batch: tuple[int, ...] = (), prior: Any = None) -> C
 
 
 def init_variables(hidden: int, seed: int, prior: np.ndarray | None = None) -> dict[str, Any]:
-    """Fresh flax variables; the head starts near zero (the thrust holds still at first, or
-    follows the prior)."""
+    """Fresh flax variables; the head starts near zero (the thrust holds still at first), or at
+    zero with a prior (the model is the prior alone)."""
     module = ThrustLSTM(hidden)
     variables = module.init(jax.random.key(seed), zero_carry(hidden), jnp.zeros(2))
     head = variables["params"]["head"]
-    head = {"kernel": head["kernel"] * 0.1, "bias": jnp.zeros_like(head["bias"])}
+    scale = 0.1 if prior is None else 0.0
+    head = {"kernel": head["kernel"] * scale, "bias": jnp.zeros_like(head["bias"])}
     out: dict[str, Any] = {"params": {**variables["params"], "head": head}}
     if prior is not None:
         out["prior"] = jnp.asarray(prior, jnp.float32)

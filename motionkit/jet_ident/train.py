@@ -4,10 +4,10 @@ free-runs on held-back blocks of every log, early stopping on the validation RMS
 One log of an engine covers its operating range sparsely, so three things carry the fit to
 states it has not seen: validation blocks spread over every log (the training windows come from
 all of its parts); a physical prior under the LSTM (model.py), started from least squares on
-the training part and trained with it; and a dead time, the throttle fed `delay` samples late
-(of 0 to `max_delay_s`, the one whose least-squares prior free-runs best on validation). Each
-prior of `ModelConfig.priors` is trained in turn (a share of the time left each); the one best
-on validation is kept.
+the training part, fitted alone by its free run, then trained with the LSTM; and a dead time,
+the throttle fed `delay` samples late (of 0 to `max_delay_s`, the one whose least-squares prior
+free-runs best on validation). Each prior of `ModelConfig.priors` is trained in turn (a share
+of the time left each); the one best on validation is kept.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from functools import partial
 from typing import Any
 
 import jax
@@ -199,16 +200,19 @@ def _train(
     progress: Callable[[str], None] | None,
 ) -> TrainResult:
     """Adam on free-run windows of `config.window` samples, then (with `long_window`) on
-    windows of that length, from the best so far, as many samples per step; each phase stops
-    early on its own, the time limit ends both."""
+    windows of that length, from the best so far, as many samples per step. With a prior, these
+    two phases run first on the prior alone (the LSTM silent), then again on both. Each phase
+    stops early on its own; the time limit ends them all."""
     start = time.perf_counter()
     prior, delay = start_prior
     warmup = config.warmup
-    phases = [(config.window, config.batch)]
+    windows = [(config.window, config.batch)]
     long_window = min(config.long_window, min(len(t) for t, _ in train) - warmup)
     if long_window > config.window:  # as long as the shortest training part allows
-        long_batch = max(1, round(config.batch * config.window / long_window))
-        phases.append((long_window, long_batch))
+        windows.append((long_window, max(1, round(config.batch * config.window / long_window))))
+    # with a prior: the prior alone first (the LSTM silent), then both together
+    stages = (True, False) if prior is not None else (False,)
+    phases = [(window, batch, alone) for alone in stages for window, batch in windows]
 
     def loss_fn(variables: dict[str, Any], thrust: jax.Array, throttle: jax.Array) -> jax.Array:
         simulated = rollout(hidden, variables, norm, dt, thrust, throttle, warmup)
@@ -226,21 +230,25 @@ def _train(
     schedule = optax.cosine_decay_schedule(config.learning_rate, config.max_steps, alpha=0.05)
     optimizer = optax.chain(optax.clip_by_global_norm(config.clip_norm), optax.adam(schedule))
 
-    @jax.jit
-    def update(variables: Any, opt_state: Any, thrust: jax.Array, throttle: jax.Array) -> Any:
+    @partial(jax.jit, static_argnames="prior_alone")
+    def update(
+        variables: Any, opt_state: Any, thrust: jax.Array, throttle: jax.Array, prior_alone: bool
+    ) -> Any:
         loss, grads = jax.value_and_grad(loss_fn)(variables, thrust, throttle)
         updates, opt_state = optimizer.update(grads, opt_state, variables)
+        if prior_alone:  # the LSTM stays as it started: silent
+            updates = {**updates, "params": jax.tree.map(jnp.zeros_like, updates["params"])}
         return optax.apply_updates(variables, updates), opt_state, loss
 
     step, stopped = 0, ""
-    for window, batch in phases:  # each from the best so far, with a fresh optimiser
+    for window, batch, prior_alone in phases:  # each from the best so far, a fresh optimiser
         draw = WindowSampler(train, warmup + window, config.seed + step)
         variables = best[1]
         opt_state = optimizer.init(variables)
         losses: list[float] = []
         waited, first, stopped = 0, step + 1, "max steps"
         for step in range(first, first + config.max_steps):
-            variables, opt_state, loss = update(variables, opt_state, *draw(batch))
+            variables, opt_state, loss = update(variables, opt_state, *draw(batch), prior_alone)
             losses.append(float(loss))
             if (step - first + 1) % config.eval_every and step != first + config.max_steps - 1:
                 continue
@@ -256,7 +264,8 @@ def _train(
             if progress:
                 mark = "*" if best[2] == step else " "
                 progress(
-                    f"step {step:5d}  window {window}  loss {row['loss']:.5f}  validation MAE "
+                    f"step {step:5d}  window {window}{' (prior alone)' * prior_alone}  "
+                    f"loss {row['loss']:.5f}  validation MAE "
                     f"{mae:6.3f} N  RMSE {rmse:6.3f} N {mark} {elapsed:5.0f} s"
                 )
             if waited >= config.patience:

@@ -18,6 +18,8 @@ from motionkit.jet_ident.step import LSTMThrust
 from motionkit.jet_ident.synthetic import synthetic_run
 from motionkit.jet_ident.train import (
     WindowSampler,
+    prior_start,
+    silent,
     split,
     split_logs,
     train_lstm,
@@ -64,6 +66,28 @@ def test_validation_picks_the_prior() -> None:
     assert result.rmse == min(rmse for _, rmse in result.scores.values())
     assert result.scores[result.prior] == (result.mae, result.rmse)
     assert result.params.prior.shape == ((13,) if result.prior == "second_order" else (6,))
+
+
+def test_the_prior_fits_alone_before_the_lstm_joins() -> None:
+    logs = [synthetic_run(BenchConfig(duration_s=90.0), 1).log]
+    config = replace(TINY, window=150, learning_rate=1e-3, max_steps=50, eval_every=25)
+    lines: list[str] = []
+    model = ModelConfig(hidden=8, priors=("second_order",), max_delay_s=0.0)
+    result = train_lstm(logs, model, config, lines.append)
+    assert [h["step"] for h in result.history] == [0, 25, 50, 75, 100]
+    assert all("window 150 (prior alone)" in line for line in lines[:2])
+    assert "prior alone" not in lines[2] + lines[3]
+    # it starts as the least-squares prior, silent LSTM and all: the same free run
+    train, valid = split_logs(logs, config.validation_fraction, config.validation_blocks)
+    norm = result.params.norm
+    coeffs, delay = prior_start("second_order", train, valid, norm, config.warmup, 0)
+    start = LSTMThrust.from_variables(init_variables(8, config.seed, coeffs), norm, 0.01, delay)
+    segments = [(p.thrust, p.throttle) for p in valid]
+    at_start = validate(start, segments, config.warmup)
+    assert at_start == pytest.approx(validate(silent(coeffs, norm, 0.01), segments, 10))
+    assert (result.history[0]["val_mae"], result.history[0]["val_rmse"]) == at_start
+    # the prior alone, fitted by its free run, beats its least-squares start on validation
+    assert result.history[1]["val_rmse"] < 0.95 * at_start[1]
 
 
 def test_a_short_log_of_an_engine_of_the_other_structure() -> None:
