@@ -1,6 +1,7 @@
 """The paper's prior ablation: one config trained with both priors, walk only, flight only and
 no prior; their final evaluations compared on a radar chart (episode duration, reward, thrust
-usage), each axis scaled by the largest value of the four."""
+usage), each axis scaled by the largest value of the four, and in a table of the figures that
+say how each setting got there (waypoints, airborne share, falls, speed)."""
 
 from __future__ import annotations
 
@@ -25,6 +26,14 @@ AXES = {  # radar axis -> evaluation figure
     "task reward": "eval_task_reward",
     "thrust usage": "eval_thrust_usage",
 }
+OUTPUTS = ("ablation.json", "ablation.md", "ablation.png")
+TABLE = {  # table column -> evaluation figure
+    **AXES,
+    "waypoints per episode": "eval_waypoints_per_episode",
+    "airborne share": "eval_airborne_share",
+    "falls per episode": "eval_falls_per_episode",
+    "speed to waypoint [m/s]": "eval_approach_speed",
+}
 
 
 def run_ablation(
@@ -34,7 +43,8 @@ def run_ablation(
     progress: Callable[[str], None] = print,
 ) -> dict[str, Any]:
     """Train the four settings into OUT/<setting>/ (a setting with a summary.json is kept),
-    then write OUT/ablation.json and OUT/ablation.png."""
+    then write OUT/ablation.json (every final evaluation), OUT/ablation.md (their table) and
+    OUT/ablation.png."""
     from motionkit.train.run import train
 
     missing = [name for name in ("walk", "flight") if name not in config.priors]
@@ -42,8 +52,8 @@ def run_ablation(
         raise TrainError(f"the ablation needs [priors.walk] and [priors.flight]; missing {missing}")
     out = Path(out)
     folders = {setting: setting.replace("+", "_") for setting in SETTINGS}
-    claim_out(out, [*folders.values(), "ablation.json", "ablation.png"], TrainError)
-    figures: dict[str, dict[str, float]] = {}
+    claim_out(out, [*folders.values(), *OUTPUTS], TrainError)
+    evaluations: dict[str, dict[str, float]] = {}
     for setting, priors in SETTINGS.items():
         folder = out / folders[setting]
         summary_path = folder / "summary.json"
@@ -53,12 +63,34 @@ def run_ablation(
         else:
             progress(f"{setting}: training into {folder}")
             summary = train(config.select_priors(priors), folder, robot, progress=progress)
-        evaluation = summary.get("eval") or {}
-        figures[setting] = {axis: float(evaluation.get(key, 0.0)) for axis, key in AXES.items()}
-    result = {"settings": dict(SETTINGS), "figures": figures}
+        evaluations[setting] = summary.get("eval") or {}
+    figures = {
+        setting: {axis: float(evaluation.get(key, 0.0)) for axis, key in AXES.items()}
+        for setting, evaluation in evaluations.items()
+    }
+    table = metrics_table(evaluations)
+    result = {"settings": dict(SETTINGS), "figures": figures, "evaluations": evaluations}
     write_text_atomic(out / "ablation.json", json.dumps(result, indent=2) + "\n")
+    write_text_atomic(out / "ablation.md", table)
     radar_chart(out / "ablation.png", figures)
-    return result
+    return result | {"table": table}
+
+
+def metrics_table(evaluations: dict[str, dict[str, float]]) -> str:
+    """A Markdown table: one row per setting, one column per figure of TABLE ("n/a" where the
+    evaluation lacks it or it is not a number, e.g. the time to a waypoint never reached)."""
+
+    def cell(value: Any) -> str:
+        return f"{value:.3g}" if isinstance(value, int | float) and value == value else "n/a"
+
+    lines = [
+        "| setting | " + " | ".join(TABLE) + " |",
+        "|---" * (len(TABLE) + 1) + "|",
+    ]
+    for setting, evaluation in evaluations.items():
+        cells = (cell(evaluation.get(key)) for key in TABLE.values())
+        lines.append(f"| {setting} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
 
 
 def radar_chart(path: Path, figures: dict[str, dict[str, float]]) -> None:

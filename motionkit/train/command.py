@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
@@ -58,9 +57,11 @@ def add_commands(
         "ablation",
         help="train with walk+flight, walk, flight and no priors; draw the radar chart",
         description="Run the paper's prior ablation: the same config trained four times (both "
-        "priors, walk only, flight only, none) into OUT/<setting>/, then compare their final "
-        "evaluations (episode duration, reward, thrust usage) in OUT/ablation.json and the "
-        "radar chart OUT/ablation.png.",
+        "priors, walk only, flight only, none) into OUT/<setting>/ (a setting whose run "
+        "finished is kept), then compare their final evaluations: the radar chart "
+        "OUT/ablation.png (episode duration, reward, thrust usage), a table OUT/ablation.md "
+        "(those and waypoints per episode, airborne share, falls, speed to the waypoint; also "
+        "printed) and every figure in OUT/ablation.json.",
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -181,8 +182,8 @@ def _ablation(args: argparse.Namespace) -> int:
     robot = load_robot(args.urdf, args.spec)
     enable_compile_cache()
     result = run_ablation(config, args.out, robot, progress=_print)
-    print(json.dumps(result["figures"], indent=2))
-    print(f"wrote {args.out}/ablation.json and {args.out}/ablation.png")
+    print(result["table"], end="")
+    print(f"wrote {args.out}/ablation.json, ablation.md and ablation.png")
     return 0
 
 
