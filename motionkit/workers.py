@@ -47,6 +47,7 @@ def stop_workers(pool: ProcessPoolExecutor, out: Path | None = None) -> None:
     blocked = signal.pthread_sigmask(signal.SIG_BLOCK, signals)
     try:
         processes = list((pool._processes or {}).values())  # no public handle before 3.14
+        result_writer = getattr(getattr(pool, "_result_queue", None), "_writer", None)
         pool.shutdown(wait=False, cancel_futures=True)
         for process in processes:
             process.terminate()
@@ -55,6 +56,12 @@ def stop_workers(pool: ProcessPoolExecutor, out: Path | None = None) -> None:
             if process.is_alive():
                 process.kill()
                 process.join()
+        if result_writer is not None:
+            # A worker ended while it sent a result leaves half a message in the result pipe,
+            # and the pool's manager thread would wait for the rest for ever (the interpreter
+            # for that thread at exit). The workers gone, this end is the pipe's last writer:
+            # closed, the reader gets end-of-file and the thread ends.
+            result_writer.close()
         if out is not None:
             remove_temporaries(out, (p.pid for p in processes if p.pid is not None))
     finally:
