@@ -108,9 +108,9 @@ def walk_prior(folder: str | None, scratch: Path) -> Path:
 
 
 def train_rows(config: TrainConfig, robot: Robot, iterations: int) -> list[dict[str, float]]:
+    from motionkit.train.learner import Trainer
     from motionkit.train.priors import load_priors
-    from motionkit.train.run import make_env
-    from motionkit.train.train import Trainer
+    from motionkit.train.runner import make_env
 
     prior, _ = load_priors(config.priors, robot, config.env.control_hz)
     trainer = Trainer(config, make_env(config, robot, prior))

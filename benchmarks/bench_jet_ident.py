@@ -173,7 +173,7 @@ def mjx_step_cost(batch: int) -> tuple[float, float]:
     import mujoco
 
     from motionkit.robot import ironcub
-    from motionkit.train.mjx import mjx
+    from motionkit.train.env.mjx import mjx
 
     model = mujoco.MjModel.from_xml_string(ironcub().mjcf_text)
     data = mujoco.MjData(model)

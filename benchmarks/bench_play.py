@@ -24,7 +24,7 @@ import numpy as np
 from motionkit import recipes
 from motionkit.robot import ironcub
 from motionkit.train.config import TrainConfig
-from motionkit.train.mjx import mjx
+from motionkit.train.env.mjx import mjx
 from motionkit.train.normalize import RunningNorm
 from motionkit.train.play import Player, roll_out
 from motionkit.train.policy import Policy, cpu_env, load_policy, policy_env

@@ -26,8 +26,8 @@ import jax.numpy as jnp
 from motionkit import recipes
 from motionkit.robot import ironcub
 from motionkit.train.config import TrainConfig
-from motionkit.train.run import make_env
-from motionkit.train.train import Trainer
+from motionkit.train.learner import Trainer
+from motionkit.train.runner import make_env
 
 RECIPE = recipes.find("train", "paper_gpu")
 TARGET_STEPS, TARGET_MINUTES = 200_000, 30.0
@@ -74,7 +74,7 @@ def training_rate(config: TrainConfig, iterations: int) -> tuple[float, float, f
 
 
 def time_to_policy(config: TrainConfig, minutes: float, out: Path) -> None:
-    from motionkit.train.run import train
+    from motionkit.train.runner import train
 
     def walks_and_flies(e: dict[str, float]) -> bool:
         return (

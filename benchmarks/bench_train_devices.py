@@ -34,7 +34,7 @@ def skipped(impl: str, devices: int, envs: int) -> str | None:
     """Why this machine cannot run the setting (None: it can)."""
     import jax
 
-    from motionkit.train.mjx import warp_missing
+    from motionkit.train.env.mjx import warp_missing
 
     if impl == "warp" and warp_missing():
         return f"warp needs {warp_missing()}"

@@ -379,7 +379,7 @@ def run(args: argparse.Namespace, clock: float, started: str) -> int:
 
     require_train_extra()
     from motionkit.robot import ironcub
-    from motionkit.train.run import train
+    from motionkit.train.runner import train
 
     enable_compile_cache()
     device = device_info()

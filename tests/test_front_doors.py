@@ -43,11 +43,11 @@ def test_front_door_exports_what_the_readme_uses(module: str, names: tuple[str, 
 
 
 def test_train_policy_is_the_run_and_not_the_module() -> None:
-    """`motionkit.train.train` is a module of the package; the front door's name is not."""
+    """`motionkit.train.learner` is a module of the package; the front door's name is not."""
     pytest.importorskip("jax")
     import motionkit.train
-    import motionkit.train.train
-    from motionkit.train.run import train
+    import motionkit.train.learner
+    from motionkit.train.runner import train
 
     assert motionkit.train.train_policy is train
 

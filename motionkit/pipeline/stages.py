@@ -265,7 +265,7 @@ def train(ctx: Context) -> Outcome:
         from motionkit.train.runtime import enable_compile_cache, require_train_extra
 
         require_train_extra()
-        from motionkit.train.run import train as train_policy
+        from motionkit.train.runner import train as train_policy
 
         enable_compile_cache()
         summary = train_policy(config, folder, ctx.robot, progress=lambda s: print(s, flush=True))

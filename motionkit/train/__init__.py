@@ -10,7 +10,7 @@
     export_policy(out, "policy", robot)                  # the small policy package
     played, route = play_policy(load_policy("policy"), robot, Path("play.mcap"))
 
-`train_policy` is `motionkit.train.run.train` (a run in a folder, resumable; the config's
+`train_policy` is `motionkit.train.runner.train` (a run in a folder, resumable; the config's
 PriorConfig tables name its priors); `make_env` builds the MJX environment of a config and
 `Trainer` its learner; `play_policy` rolls a policy (`load_policy`: a run folder, a package of
 `export_policy` or a shipped policy) out with plain MuJoCo into a clip; `enable_compile_cache`
@@ -29,10 +29,10 @@ from motionkit.train.runtime import enable_compile_cache, require_train_extra
 
 # exported name -> (module, attribute); `train` itself is a module of this package
 _LAZY = {
-    "train_policy": ("run", "train"),
-    "make_env": ("run", "make_env"),
+    "train_policy": ("runner", "train"),
+    "make_env": ("runner", "make_env"),
     "run_ablation": ("ablation", "run_ablation"),
-    "Trainer": ("train", "Trainer"),
+    "Trainer": ("learner", "Trainer"),
     "export_policy": ("policy", "export_policy"),
     "load_policy": ("policy", "load_policy"),
     "play_policy": ("play", "play"),

@@ -45,7 +45,7 @@ def run_ablation(
     """Train the four settings into OUT/<setting>/ (a setting with a summary.json is kept),
     then write OUT/ablation.json (every final evaluation), OUT/ablation.md (their table) and
     OUT/ablation.png."""
-    from motionkit.train.run import train
+    from motionkit.train.runner import train
 
     missing = [name for name in ("walk", "flight") if name not in config.priors]
     if missing:

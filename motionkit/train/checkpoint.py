@@ -17,7 +17,7 @@ from flax import serialization
 
 from motionkit.errors import TrainError
 from motionkit.outputs import atomic_output
-from motionkit.train.train import Learner
+from motionkit.train.learner import Learner
 
 NAME = "checkpoint.msgpack"
 SLIM_NAME = "checkpoint_slim.msgpack"

@@ -163,7 +163,7 @@ def _train(args: argparse.Namespace) -> int:
     if args.config is None or args.out is None:
         raise TrainError("train needs --config TOML and --out DIR (see motionkit train --help)")
     require_train_extra()
-    from motionkit.train.run import train
+    from motionkit.train.runner import train
 
     config = _config(args)
     config = config.select_priors(parse_priors(args.priors, list(config.priors)))

@@ -19,7 +19,9 @@ SCENARIOS = ("flat", "terrain")
 JETS = ("ideal", "lstm", "grey_box", "selected")  # the last three: models of jet_model
 ACTION_MAPPINGS = ("range", "stand")
 LR_SCHEDULES = ("constant", "adaptive")
-IMPLS = ("jax", "warp")  # MJX on JAX (any device) or on MuJoCo Warp (NVIDIA GPUs)
+# "auto": MJX on JAX where a GPU is present, else MuJoCo; "jax": MJX on JAX (any device);
+# "warp": MJX on MuJoCo Warp (NVIDIA GPUs); "mujoco": MuJoCo C on the CPU's cores
+IMPLS = ("auto", "jax", "warp", "mujoco")
 
 
 @dataclass(frozen=True)
@@ -55,7 +57,9 @@ class EnvConfig:
     joint_noise: float = 0.05  # rad, uniform noise on the standing posture at reset
     solver_iterations: int = 4  # MJX Newton iterations (cheap and good enough at 240 Hz)
     ls_iterations: int = 6
-    impl: str = "jax"  # the MJX backend: "jax" or "warp" (NVIDIA GPU, `motionkit[warp]`)
+    # the physics: "auto" (MJX on a GPU, MuJoCo on a CPU), "jax" (MJX), "warp" (MJX on MuJoCo
+    # Warp, NVIDIA GPUs, `motionkit[warp]`) or "mujoco" (MuJoCo C, `mujoco.batch`, all cores)
+    impl: str = "auto"
     terrain_size: float = 16.0  # m, side of the square terrain ("terrain" scenario)
     terrain_seed: int = 0
 

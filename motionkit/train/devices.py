@@ -53,3 +53,11 @@ def replicated(mesh: Mesh) -> NamedSharding:
 def batch_sharding(mesh: Mesh, axis: int = 0) -> NamedSharding:
     """Arrays split along `axis` (the environments) over the mesh."""
     return NamedSharding(mesh, PartitionSpec(*([None] * axis), AXIS))
+
+
+def resolve_impl(impl: str) -> str:
+    """The physics backend `impl` means here: "auto" is MJX on JAX where JAX sees a GPU and
+    MuJoCo C (`mujoco.batch`) on a CPU; any other name is itself."""
+    if impl != "auto":
+        return impl
+    return "mujoco" if jax.default_backend() == "cpu" else "jax"

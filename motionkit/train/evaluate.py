@@ -13,7 +13,7 @@ import numpy as np
 from motionkit.dataset import Metadata, Source, Trajectory, write
 from motionkit.robot import Robot
 from motionkit.robot.geometry import angular_velocity
-from motionkit.train.train import Learner, Trainer
+from motionkit.train.learner import Learner, Trainer
 
 FIELDS = (
     "done",
@@ -25,9 +25,8 @@ FIELDS = (
     "airborne",
     "feet_down",
     "switches",
-    "thrust",
     "task_reward",
-)
+)  # of StepInfo
 FIRST_ONLY = ("qpos", "target")  # kept for environment 0 alone: its clip is saved
 
 
@@ -39,11 +38,12 @@ def evaluate(
     end as (partial) episodes."""
     k_reset, k_run = jax.random.split(key)
     state = trainer.reset_standing(jax.random.split(k_reset, trainer.config.ppo.num_envs))
-    parts: dict[str, list[np.ndarray]] = {name: [] for name in FIELDS + FIRST_ONLY}
+    parts: dict[str, list[np.ndarray]] = {name: [] for name in (*FIELDS, "thrust", *FIRST_ONLY)}
     for k in jax.random.split(k_run, chunks):
         state, batch = trainer.rollout(learner, state, k, jnp.array(0.0))
         for name in FIELDS:
-            parts[name].append(np.asarray(getattr(batch, name)))
+            parts[name].append(np.asarray(getattr(batch.info, name)))
+        parts["thrust"].append(np.asarray(batch.thrust))
         for name in FIRST_ONLY:
             parts[name].append(np.asarray(getattr(batch, name)[:, :1]))
     arrays = {name: np.concatenate(value) for name, value in parts.items()}

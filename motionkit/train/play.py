@@ -32,11 +32,10 @@ from motionkit.dataset import write
 from motionkit.errors import TrainError
 from motionkit.outputs import check_out, claim_out
 from motionkit.robot import Robot
-from motionkit.train import terrain as terrain_lib
-from motionkit.train import waypoints
-from motionkit.train.env import Env
+from motionkit.train.env import Env, waypoints
+from motionkit.train.env import terrain as terrain_lib
+from motionkit.train.env.mjx import mjx
 from motionkit.train.evaluate import first_episode
-from motionkit.train.mjx import mjx
 from motionkit.train.policy import Policy, policy_env
 
 FIELDS = ("qpos", "qvel", "xpos", "xmat", "site_xpos")  # what Env.observe and feet_down read

@@ -188,7 +188,7 @@ def _norm(state: dict[str, Any]) -> RunningNorm:
 def cpu_env(config: TrainConfig, robot: Robot) -> Env:
     """The environment of `config` for `robot` on MJX-JAX, for this machine's CPU (a GPU
     run's impl and devices set aside)."""
-    from motionkit.train.run import make_env
+    from motionkit.train.runner import make_env
 
     config = replace(
         config, env=replace(config.env, impl="jax"), run=replace(config.run, devices=1)

@@ -15,7 +15,7 @@ from motionkit.robot.geometry import quat_rotate_inverse, to_rotation
 from motionkit.robot.kinematics import frame_poses
 from motionkit.train.amp import PriorData, PriorStates
 from motionkit.train.config import PriorConfig
-from motionkit.train.env import AIRBORNE_CLEARANCE
+from motionkit.train.env.task import AIRBORNE_CLEARANCE
 
 
 def load_priors(

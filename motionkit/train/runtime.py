@@ -12,7 +12,7 @@ def require_train_extra(what: str = "train") -> None:
     """TrainError naming `what` and the [train] extra when JAX, flax, optax or MuJoCo is
     missing."""
     require("train", what, TrainError, ("jax", "flax", "optax", "mujoco"))
-    from motionkit.train.mjx import mjx  # noqa: F401  (quietly: no warp notice)
+    from motionkit.train.env.mjx import mjx  # noqa: F401  (quietly: no warp notice)
 
 
 def enable_compile_cache() -> None:

@@ -1,5 +1,5 @@
 """The trainer's jets on the fitted models: the grey box of jet_model as a jittable step, and
-an LSTM on a second-order prior (a state of three parts), through motionkit.train.jets."""
+an LSTM on a second-order prior (a state of three parts), through motionkit.train.env.jets."""
 
 import jax.numpy as jnp
 import numpy as np
@@ -9,7 +9,7 @@ from motionkit.jet_ident.model import Normalisation, init_variables
 from motionkit.jet_ident.p250 import P250_COEFFS, steady_thrust
 from motionkit.jet_ident.step import GreyBoxThrust, LSTMThrust, thrust_next
 from motionkit.train.config import EnvConfig
-from motionkit.train.jets import Jets
+from motionkit.train.env.jets import Jets
 
 CONFIG = EnvConfig(control_hz=60.0, jet="grey_box", jet_model="unused.npz")
 

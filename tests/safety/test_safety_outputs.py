@@ -136,7 +136,7 @@ COMMANDS: dict[str, tuple[Callable[[Path, Path], list[str]], str, str]] = {
     "retarget": (retarget_argv, "motionkit.retarget.batch.retarget_all", "walk.mcap"),
     "trajopt": (trajopt_argv, "motionkit.trajopt.solve.solve", "hop.mcap"),
     "jet-ident fit": (fit_argv, "motionkit.jet_ident.fit.identify", "report.txt"),
-    "train": (train_argv, "motionkit.train.run.load_priors", "train.csv"),
+    "train": (train_argv, "motionkit.train.runner.load_priors", "train.csv"),
     "pipeline": (pipeline_argv, "motionkit.pipeline.runner.STAGES", "walk"),
 }
 
@@ -152,7 +152,7 @@ def refused(
     argv, work, _ = COMMANDS[command]
     if command == "train":
         pytest.importorskip("mujoco.mjx")
-        import motionkit.train.run  # noqa: F401  (so that its load_priors can be replaced)
+        import motionkit.train.runner  # noqa: F401  (so that its load_priors can be replaced)
     if command in ("trajopt", "pipeline"):
         pytest.importorskip("casadi")
     if command == "jet-ident fit":
@@ -231,7 +231,7 @@ def test_resume_with_a_corrupt_checkpoint_writes_nothing(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     pytest.importorskip("mujoco.mjx")
-    from motionkit.train.run import OUTPUTS
+    from motionkit.train.runner import OUTPUTS
 
     out = tmp_path / "run"
     out.mkdir()

@@ -20,7 +20,7 @@ def test_rollout_clip_validates(tmp_path: Path) -> None:
     from motionkit.dataset.validate import validate_clip
     from motionkit.robot import ironcub
     from motionkit.train.config import TrainConfig
-    from motionkit.train.run import train
+    from motionkit.train.runner import train
 
     config = TrainConfig.from_toml(recipes.find("train", "tiny_cpu")).select_priors([])
     config = replace(config, run=replace(config.run, iterations=1, tensorboard=False))

@@ -39,9 +39,10 @@ def tiny_config():
 
 @pytest.fixture(scope="session")
 def env(robot, tiny_config):
+    """The tiny environment on MJX (JAX): the backend that `batch_fns` steps."""
     from motionkit.train.env import Env
 
-    return Env(robot, tiny_config.env, tiny_config.reward)
+    return Env(robot, replace(tiny_config.env, impl="jax"), tiny_config.reward)
 
 
 @pytest.fixture(scope="session")

@@ -48,7 +48,7 @@ def test_run_ablation_writes_its_outputs_and_keeps_finished_runs(
 ) -> None:
     """The four settings' priors reach train(); a setting whose summary.json exists is not
     trained again; the chart, table and JSON carry each setting's evaluation."""
-    import motionkit.train.run as run
+    import motionkit.train.runner as run
 
     trained: dict[str, list[str]] = {}
 

@@ -12,8 +12,8 @@ from flax import serialization
 
 from motionkit.errors import TrainError
 from motionkit.train.checkpoint import load_checkpoint, save_checkpoint, write_slim
+from motionkit.train.learner import Learner
 from motionkit.train.normalize import RunningNorm
-from motionkit.train.train import Learner
 
 
 def learner(seed: int, width: int = 8) -> Learner:

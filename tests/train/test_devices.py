@@ -89,8 +89,8 @@ SCRIPT = textwrap.dedent(
     from motionkit.train.config import PriorConfig, TrainConfig
     from motionkit.train.devices import batch_sharding
     from motionkit.train.priors import load_priors
-    from motionkit.train.run import make_env
-    from motionkit.train.train import Trainer
+    from motionkit.train.runner import make_env
+    from motionkit.train.learner import Trainer
 
     recipe, out, walk, flight = sys.argv[1:]
     config = TrainConfig.from_toml(Path(recipe))

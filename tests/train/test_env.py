@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from motionkit.errors import TrainError
-from motionkit.train import mjx as mjx_module
 from motionkit.train.env import Env
-from motionkit.train.mjx import warp_missing
+from motionkit.train.env import mjx as mjx_module
+from motionkit.train.env.mjx import warp_missing
 
 BATCH = 4
 slow = pytest.mark.slow  # compiles MJX (about a minute on a 2-core CPU)
@@ -76,7 +76,7 @@ def test_warp_missing_names_what_is_missing(monkeypatch: pytest.MonkeyPatch) -> 
 
 
 def test_impl_is_checked(tiny_config) -> None:
-    with pytest.raises(TrainError, match="'impl' should be one of 'jax', 'warp', got 'cpp'"):
+    with pytest.raises(TrainError, match="'impl' should be one of 'auto', 'jax', 'warp', 'mujoco', got 'cpp'"):
         replace(tiny_config.env, impl="cpp")
 
 

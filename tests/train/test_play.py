@@ -28,7 +28,7 @@ FAR = "5,5,0.6"  # never reached in the seconds played
 
 @pytest.fixture(scope="module")
 def run_folder(tiny_config, robot, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from motionkit.train.run import train
+    from motionkit.train.runner import train
 
     out = tmp_path_factory.mktemp("run")
     run = replace(tiny_config.run, iterations=2, tensorboard=False)
@@ -157,7 +157,7 @@ def _parity(env, batch_fns, lift: float, noise: float, steps: int = 10) -> dict[
     jitted batch step, on a batch of one) and Player (plain MuJoCo), from the same standing
     state raised by `lift` [m], under the same actions (the rest action plus `noise` x
     N(0, 1))."""
-    from motionkit.train.mjx import mjx
+    from motionkit.train.env.mjx import mjx
 
     reset, batch_step = batch_fns
     state = jax.tree.map(lambda x: x[0], reset(jax.random.split(jax.random.key(3), 1)))

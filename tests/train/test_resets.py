@@ -47,7 +47,7 @@ def prior_env(robot, tiny_config, prior_files, standing_clip):
     }
     prior, summary = load_priors(priors, robot, tiny_config.env.control_hz)
     assert summary["flight"]["airborne_share"] > 0.9 and summary["stand"]["airborne_share"] == 0
-    config = replace(tiny_config.env, reset_from_prior=1.0, air_probability=0.0)
+    config = replace(tiny_config.env, impl="jax", reset_from_prior=1.0, air_probability=0.0)
     return Env(robot, config, tiny_config.reward, prior=prior)
 
 
@@ -109,7 +109,7 @@ def test_prior_share_picks_standing_or_prior_starts(prior_env) -> None:
 def test_lstm_jets_rest_at_the_start_thrust(tiny_config) -> None:
     from motionkit.jet_ident.model import Normalisation, init_variables
     from motionkit.jet_ident.step import LSTMThrust, initial_state, thrust_next
-    from motionkit.train.jets import TABLE_SIZE, THROTTLES, Jets
+    from motionkit.train.env.jets import TABLE_SIZE, THROTTLES, Jets
 
     params = LSTMThrust.from_variables(
         init_variables(8, 0), Normalisation(100.0, 60.0, 50.0, 30.0, 60.0), 0.01

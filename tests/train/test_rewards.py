@@ -6,8 +6,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from motionkit.train import rewards
 from motionkit.train.config import RewardConfig
+from motionkit.train.env import rewards
 
 
 def test_target_reward() -> None:

@@ -12,10 +12,9 @@ pytestmark = pytest.mark.slow  # compiles MJX with heightfield collisions
 
 
 def test_terrain_reset_and_step(robot, tiny_config) -> None:
-    from motionkit.train import terrain
-    from motionkit.train.env import HEIGHT_MAP, Env
+    from motionkit.train.env import HEIGHT_MAP, Env, terrain
 
-    env = Env(robot, replace(tiny_config.env, scenario="terrain", terrain_size=8.0))
+    env = Env(robot, replace(tiny_config.env, impl="jax", scenario="terrain", terrain_size=8.0))
     assert env.obs_size == 76 - 1 + HEIGHT_MAP[0] * HEIGHT_MAP[1]
     state = jax.jit(jax.vmap(env.reset))(jax.random.split(jax.random.key(2), 3))
     spawns = {tuple(p) for p in np.round(terrain.tile_centres(8.0), 3)}

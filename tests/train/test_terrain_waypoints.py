@@ -7,8 +7,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from motionkit.train import terrain, waypoints
 from motionkit.train.config import EnvConfig
+from motionkit.train.env import terrain, waypoints
 
 
 def test_height_at_is_bilinear_with_rows_along_y() -> None:

@@ -171,7 +171,7 @@ def test_simulator_features_equal_the_dataset_features(env, robot) -> None:
     from motionkit.dataset import amp_features
     from motionkit.dataset.synthetic import synthetic_trajectory
     from motionkit.robot.geometry import quat_rotate_inverse
-    from motionkit.train.mjx import mjx
+    from motionkit.train.env.mjx import mjx
 
     clip = synthetic_trajectory(robot, 0.5, 10.0, thrust=80.0, turn_rate=0.7, seed=3)
     expected = amp_features(clip, robot)

@@ -34,7 +34,7 @@ def test_importing_the_trainer_prints_nothing() -> None:
     import subprocess
     import sys
 
-    code = "import motionkit.train.env, motionkit.train.train"
+    code = "import motionkit.train.env, motionkit.train.learner"
     run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stderr
     assert run.stdout == ""

@@ -1,4 +1,4 @@
-"""A tiny seeded training run on the CPU through `motionkit.train.run.train`: the
+"""A tiny seeded training run on the CPU through `motionkit.train.runner.train`: the
 discriminator learns to tell the priors from the policy's (random) motion without saturating,
 the task reward rises, and the run folder has its logs, checkpoint and evaluation rollout;
 resume continues."""
@@ -28,7 +28,7 @@ def learning_config(config):
 
 @pytest.fixture(scope="module")
 def run_folder(config_with_priors, robot, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from motionkit.train.run import train
+    from motionkit.train.runner import train
 
     out = tmp_path_factory.mktemp("run")
     lines: list[str] = []
@@ -95,7 +95,7 @@ def test_run_folder_contents(run_folder: Path, robot) -> None:
 def test_resume_continues_and_refuses_to_overwrite(
     run_folder: Path, config_with_priors, robot
 ) -> None:
-    from motionkit.train.run import train
+    from motionkit.train.runner import train
 
     config = learning_config(config_with_priors)
     with pytest.raises(TrainError, match="--resume"):
@@ -111,7 +111,7 @@ def test_resume_continues_and_refuses_to_overwrite(
 
 def test_missing_prior_is_a_clear_error(tiny_config, robot, tmp_path: Path) -> None:
     from motionkit.train.config import PriorConfig
-    from motionkit.train.run import train
+    from motionkit.train.runner import train
 
     config = replace(tiny_config, priors={"walk": PriorConfig(("no/such/folder",))})
     with pytest.raises(TrainError, match="prior 'walk': no/such/folder: no such file"):

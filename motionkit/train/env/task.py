@@ -4,7 +4,7 @@ One environment is a pytree `EnvState`; `Env.reset(key)` and `Env.step(state, ac
 and jittable; vmap them for a batch. Control at `control_hz` with `substeps` physics steps.
 Actions (27) in [-1, 1]: 23 joint position targets (PD in MuJoCo; `action_mapping` "range":
 mid-range + action_scale * joint range * a, the AMP reference's; "stand": standing posture +
-action_scale * a rad) and 4 jet inputs (`motionkit.train.jets`).
+action_scale * a rad) and 4 jet inputs (`motionkit.train.env.jets`).
 
 Resets: with probability `reset_from_prior` an episode starts in a frame of the motion priors
 (reference state initialisation): the frame's base pose moved to the spawn point and turned to
@@ -22,12 +22,13 @@ The AMP features are those of `motionkit.dataset.amp_features` with the thrust a
 An episode ends when the base is lower than `min_base_height` above the terrain (a fall), when
 the state is not finite, or after `episode_seconds`; `step` then starts a new one (auto-reset)
 and reports the last observation and AMP features of the ended one. A waypoint is replaced when
-reached or when its deadline passes (`motionkit.train.waypoints`).
+reached or when its deadline passes (`motionkit.train.env.waypoints`).
 """
 
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from dataclasses import replace
 from typing import Any
 
 import jax
@@ -37,16 +38,16 @@ import numpy as np
 from flax import struct
 
 from motionkit.dataset.amp import FeatureLayout
-from motionkit.errors import TrainError
 from motionkit.jet_ident.step import GreyBoxThrust, LSTMThrust
 from motionkit.robot import Robot
-from motionkit.train import terrain as terrain_lib
-from motionkit.train import waypoints
 from motionkit.train.amp import PriorData, amp_features
 from motionkit.train.config import EnvConfig, RewardConfig
-from motionkit.train.jets import Jets
-from motionkit.train.mjx import mjx, warp_missing
-from motionkit.train.rewards import task_reward, task_terms
+from motionkit.train.devices import resolve_impl
+from motionkit.train.env import terrain as terrain_lib
+from motionkit.train.env import waypoints
+from motionkit.train.env.jets import Jets
+from motionkit.train.env.mjx import mjx, put_on_backend
+from motionkit.train.env.rewards import task_reward, task_terms
 from motionkit.train.spatial import facing_angle, quat_mul, quat_to_matrix
 
 HEIGHT_MAP = (7, 9)  # points along the facing direction x across it
@@ -57,7 +58,7 @@ ROUTE_MARGIN = 1.0  # m kept between waypoints and the terrain's edge
 
 @struct.dataclass
 class EnvState:
-    data: mjx.Data
+    data: Any  # mjx.Data (MJX backends) or Kinematics (MuJoCo backend)
     thrust: jax.Array  # (jets,) N
     jet: Any  # jet model state (LSTM (c, h) per jet; () for the ideal jet)
     target: jax.Array  # (3,) current waypoint, world frame
@@ -95,6 +96,20 @@ class StepInfo:
     prior_reset: jax.Array  # the episode ended and the next one starts in a prior frame
 
 
+@struct.dataclass
+class ResetPose:
+    """Where an episode starts, before its kinematics are computed."""
+
+    qpos: jax.Array
+    qvel: jax.Array
+    thrust: jax.Array  # (jets,) N
+    origin: jax.Array  # the prior transition it starts from (-1: standing)
+    target: jax.Array  # (3,) its first waypoint
+    air_share: jax.Array
+    prior_share: jax.Array
+    key: jax.Array  # the episode's own key
+
+
 def mjcf_text(robot: Robot, terrain: terrain_lib.Terrain | None) -> str:
     """The robot's MJCF, on the floor plane or on the terrain's heightfield."""
     root = ET.fromstring(robot.mjcf_text)
@@ -112,28 +127,6 @@ def mjcf_text(robot: Robot, terrain: terrain_lib.Terrain | None) -> str:
     return ET.tostring(root, encoding="unicode")
 
 
-def put_on_backend(
-    model: mujoco.MjModel, data: mujoco.MjData, impl: str, worlds: int
-) -> tuple[mjx.Model, mjx.Data]:
-    """The MJX model and data on backend `impl` ("jax" or "warp"). MuJoCo Warp allocates its
-    contacts for all the worlds stepped together (`worlds`, the environments on one device) and
-    its constraints per world: as many as MJX-JAX has (every candidate contact)."""
-    if impl == "jax":
-        return mjx.put_model(model, impl="jax"), mjx.put_data(model, data, impl="jax")
-    missing = warp_missing()
-    if missing:
-        raise TrainError(f"[env] impl = 'warp' needs {missing}")
-    sizes = mjx.put_data(model, data, impl="jax")._impl  # MJX-JAX's static contact arrays
-    warp_data = mjx.put_data(
-        model,
-        data,
-        impl="warp",
-        naconmax=max(1, sizes.ncon) * worlds,
-        njmax=max(1, sizes.efc_J.shape[0]),
-    )
-    return mjx.put_model(model, impl="warp"), warp_data
-
-
 class Env:
     """iRonCub in MJX with waypoint routes; a plain Python object holding static data.
     `prior`: the motion priors (`motionkit.train.priors.load_priors`) whose frames resets may
@@ -149,6 +142,7 @@ class Env:
         prior: PriorData | None = None,
         worlds: int = 1,
     ) -> None:
+        config = replace(config, impl=resolve_impl(config.impl))
         self.robot, self.config = robot, config
         self.reward_config = reward or RewardConfig()
         flat = config.scenario == "flat"
@@ -165,7 +159,10 @@ class Env:
         data = mujoco.MjData(model)
         mujoco.mj_resetDataKeyframe(model, data, model.key("stand").id)
         mujoco.mj_kinematics(model, data)  # no collision: MJX sizes its own contact arrays
-        self.mx, self.stand = put_on_backend(model, data, config.impl, worlds)
+        self.stand_qpos = jnp.asarray(data.qpos, jnp.float32)
+        self.mx = self.stand = None  # the MuJoCo backend steps the model itself
+        if config.impl in ("jax", "warp"):
+            self.mx, self.stand = put_on_backend(model, data, config.impl, worlds)
 
         spec = robot.spec
         joints = len(robot.joint_names)
@@ -280,10 +277,10 @@ class Env:
             k_noise, (self.num_joints,), minval=-noise, maxval=noise
         )
         joints = jnp.clip(joints, self.ctrl_low, self.ctrl_high)
-        qpos = self.stand.qpos.at[:2].add(spawn).at[7:].set(joints)
+        qpos = self.stand_qpos.at[:2].add(spawn).at[7:].set(joints)
         low, high = self.config.initial_thrust
         thrust = jax.random.uniform(k_thrust, (self.num_jets,), minval=low, maxval=high)
-        return qpos, jnp.zeros_like(self.stand.qvel), jnp.minimum(thrust, self.t_max)
+        return qpos, jnp.zeros(self.mj_model.nv), jnp.minimum(thrust, self.t_max)
 
     def _prior_frame(self, index: jax.Array, key: jax.Array, spawn: jax.Array) -> tuple:
         """(qpos, qvel, thrust, airborne) of prior frame `index`, its base moved above the
@@ -299,21 +296,27 @@ class Env:
         qvel = qvel.at[:2].set(jnp.array([cos * vx - sin * vy, sin * vx + cos * vy]))
         return qpos, qvel, jnp.minimum(states.thrust[index], self.t_max), states.airborne[index]
 
-    def reset(
+    @property
+    def default_prior_share(self) -> float:
+        """The chance that a reset starts in a prior frame: reset_from_prior with priors."""
+        has_states = self.prior is not None and self.prior.states is not None
+        return self.config.reset_from_prior if has_states else 0.0
+
+    def reset_pose(
         self,
         key: jax.Array,
         air_share: jax.Array | float | None = None,
         prior_share: jax.Array | float | None = None,
-    ) -> EnvState:
-        """A new episode. `air_share` (default: air_probability): chance of an air waypoint;
-        `prior_share` (default: reset_from_prior with priors, else 0): chance to start in a
-        prior frame."""
+    ) -> ResetPose:
+        """Where a new episode starts, before its kinematics. `air_share` (default:
+        air_probability): chance of an air waypoint; `prior_share` (default: reset_from_prior
+        with priors, else 0): chance to start in a prior frame."""
         config = self.config
         has_states = self.prior is not None and self.prior.states is not None
         if air_share is None:
             air_share = config.air_probability
         if prior_share is None:
-            prior_share = config.reset_from_prior if has_states else 0.0
+            prior_share = self.default_prior_share
         air_share = jnp.asarray(air_share, jnp.float32)
         prior_share = jnp.asarray(prior_share, jnp.float32)
         k_spawn, k_stand, k_target, k_pick, k_use, k_yaw, k_next = jax.random.split(key, 7)
@@ -329,7 +332,6 @@ class Env:
             )
             origin = jnp.where(use, index, origin)
             airborne = use & frame[3]
-        data = mjx.kinematics(self.mx, self.stand.replace(qpos=qpos, qvel=qvel))
         target = waypoints.next_waypoint(
             k_target,
             qpos[:3],
@@ -338,23 +340,41 @@ class Env:
             self.route_bound,
             jnp.where(airborne, 1.0, air_share),
         )
+        return ResetPose(qpos, qvel, thrust, origin, target, air_share, prior_share, k_next)
+
+    def start(self, pose: ResetPose, data: Any) -> EnvState:
+        """The episode that starts at `pose`, its kinematics `data` (an mjx.Data or the
+        MuJoCo backend's `Kinematics`, at pose.qpos)."""
         zero = jnp.array(0, jnp.int32)
         return EnvState(
             data=data,
-            thrust=thrust,
-            jet=self.jets.state_at(thrust),
-            target=target,
+            thrust=pose.thrust,
+            jet=self.jets.state_at(pose.thrust),
+            target=pose.target,
             target_steps=zero,
-            deadline=self._deadline(qpos[:3], target),
+            deadline=self._deadline(pose.qpos[:3], pose.target),
             steps=zero,
             reached=zero,
-            origin=origin,
-            air_share=air_share,
-            prior_share=prior_share,
-            key=k_next,
-            obs=self.observe(data, thrust, target),
-            chi=self.features(data, thrust),
+            origin=pose.origin,
+            air_share=pose.air_share,
+            prior_share=pose.prior_share,
+            key=pose.key,
+            obs=self.observe(data, pose.thrust, pose.target),
+            chi=self.features(data, pose.thrust),
         )
+
+    def reset(
+        self,
+        key: jax.Array,
+        air_share: jax.Array | float | None = None,
+        prior_share: jax.Array | float | None = None,
+    ) -> EnvState:
+        """A new episode in MJX (`reset_pose` and its kinematics)."""
+        return self._start_mjx(self.reset_pose(key, air_share, prior_share))
+
+    def _start_mjx(self, pose: ResetPose) -> EnvState:
+        data = mjx.kinematics(self.mx, self.stand.replace(qpos=pose.qpos, qvel=pose.qvel))
+        return self.start(pose, data)
 
     def _deadline(self, position: jax.Array, target: jax.Array) -> jax.Array:
         return waypoints.deadline_steps(position, target, self.config, self.reward_config.v_desired)
@@ -362,14 +382,20 @@ class Env:
     def _jets(self, state: EnvState, action: jax.Array) -> tuple[Any, jax.Array]:
         return self.jets.step(state.jet, state.thrust, action)
 
-    def step(self, state: EnvState, action: jax.Array) -> tuple[EnvState, StepInfo]:
+    def control(self, state: EnvState, action: jax.Array) -> tuple[jax.Array, Any, jax.Array]:
+        """(ctrl, jet model state, thrust) of `action` from `state`: the action clipped to
+        [-1, 1], the PD targets mapped, the jets stepped."""
         action = jnp.clip(action, -1.0, 1.0)
-        joints, jets = action[: self.num_joints], action[self.num_joints :]
-        feet_before = self.feet_down(state.data)
-        jet, thrust = self._jets(state, jets)
-        data = state.data.replace(ctrl=jnp.concatenate([self.joint_targets(joints), thrust]))
-        data = jax.lax.fori_loop(0, self.config.substeps, lambda _, d: mjx.step(self.mx, d), data)
+        jet, thrust = self._jets(state, action[self.num_joints :])
+        return jnp.concatenate([self.joint_targets(action[: self.num_joints]), thrust]), jet, thrust
 
+    def advance(
+        self, state: EnvState, data: Any, jet: Any, thrust: jax.Array
+    ) -> tuple[EnvState, StepInfo, ResetPose]:
+        """The task after the physics stepped `state` to `data` (an mjx.Data or the
+        MuJoCo backend's `Kinematics`):
+        rewards, waypoints, termination, observation. Returns the state stepped (not reset),
+        what the step did, and the pose the next episode starts from where info.done."""
         base, velocity = data.qpos[:3], data.qvel[:3]
         facing = quat_to_matrix(data.qpos[3:7]) @ self.forward
         terms = task_terms(
@@ -404,7 +430,7 @@ class Env:
         obs = self.observe(data, thrust, target)
         chi = self.features(data, thrust)
         feet_down = self.feet_down(data)
-        fresh = self.reset(k_reset, state.air_share, state.prior_share)
+        pose = self.reset_pose(k_reset, state.air_share, state.prior_share)
         info = StepInfo(
             task_reward=jnp.where(finite, reward, 0.0),
             terms=terms,
@@ -418,10 +444,10 @@ class Env:
             approach_speed=jnp.where(finite, approach, 0.0),
             airborne=~jnp.any(feet_down),
             feet_down=feet_down,
-            switches=feet_down != feet_before,
+            switches=feet_down != self.feet_down(state.data),
             episode_steps=steps,
             episode_reached=reached,
-            prior_reset=done & (fresh.origin >= 0),
+            prior_reset=done & (pose.origin >= 0),
         )
         stepped = state.replace(
             data=data,
@@ -436,5 +462,14 @@ class Env:
             obs=obs,
             chi=chi,
         )
-        state = jax.tree.map(lambda a, b: jnp.where(done, a, b), fresh, stepped)
+        return stepped, info, pose
+
+    def step(self, state: EnvState, action: jax.Array) -> tuple[EnvState, StepInfo]:
+        """One control step in MJX; an episode that ends restarts (auto-reset)."""
+        ctrl, jet, thrust = self.control(state, action)
+        data = state.data.replace(ctrl=ctrl)
+        data = jax.lax.fori_loop(0, self.config.substeps, lambda _, d: mjx.step(self.mx, d), data)
+        stepped, info, pose = self.advance(state, data, jet, thrust)
+        fresh = self._start_mjx(pose)
+        state = jax.tree.map(lambda a, b: jnp.where(info.done, a, b), fresh, stepped)
         return state, info

@@ -10,7 +10,7 @@ import jax
 import jax.numpy as jnp
 
 from motionkit.train.config import EnvConfig
-from motionkit.train.terrain import Terrain, height_at
+from motionkit.train.env.terrain import Terrain, height_at
 
 
 def lift_of(terrain: Terrain, point: jax.Array) -> jax.Array:

@@ -16,19 +16,25 @@ rounding.
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 import optax
 from flax import struct
 from jax.sharding import Mesh
 from jax.sharding import PartitionSpec as P
 
+from motionkit.errors import TrainError
 from motionkit.train.amp import Discriminator, PriorData, ReplayBuffer, discriminator_loss
 from motionkit.train.config import TrainConfig
 from motionkit.train.devices import AXIS, batch_sharding, make_mesh, replicated
-from motionkit.train.env import Env, EnvState
+from motionkit.train.env import Env, EnvState, StepInfo
+from motionkit.train.env.mujoco import BatchPhysics
+from motionkit.train.env.rewards import style_reward, total_reward
+from motionkit.train.env.waypoints import air_share
 from motionkit.train.normalize import RunningNorm
 from motionkit.train.ppo import (
     ActorCritic,
@@ -38,8 +44,6 @@ from motionkit.train.ppo import (
     log_prob,
     ppo_loss,
 )
-from motionkit.train.rewards import style_reward, total_reward
-from motionkit.train.waypoints import air_share
 
 
 @struct.dataclass
@@ -77,27 +81,40 @@ class Rollout:
     log_probs: jax.Array
     values: jax.Array
     final_values: jax.Array
-    task_reward: jax.Array
-    terms: dict[str, jax.Array]
-    done: jax.Array
-    truncated: jax.Array
     chi: jax.Array
-    chi_next: jax.Array
-    hit: jax.Array
-    timed_out: jax.Array
-    hit_steps: jax.Array
-    approach_speed: jax.Array
-    airborne: jax.Array
-    feet_down: jax.Array
-    switches: jax.Array
-    episode_steps: jax.Array
-    episode_reached: jax.Array
-    prior_reset: jax.Array
-    qpos: jax.Array
+    info: StepInfo  # what each step did
+    qpos: jax.Array  # after the step (and its auto-reset)
     qvel: jax.Array
     thrust: jax.Array
     target: jax.Array  # the waypoint pursued during the step
     last_obs: jax.Array
+
+
+class PhaseClock:
+    """Wall seconds spent in each phase of the MuJoCo backend's rollout, summed until read:
+    "policy" (the policy and the controls), "physics" (the Batch's step), "task" (rewards,
+    waypoints, termination, the record) and "resets" (the ended environments' restarts). A
+    phase ends when its result is on the host, so JAX's asynchronous work is counted where it
+    ran."""
+
+    def __init__(self) -> None:
+        self.seconds: dict[str, float] = {}
+        self._mark = time.perf_counter()
+
+    def start(self) -> None:
+        self._mark = time.perf_counter()
+
+    def lap(self, phase: str, result: Any) -> Any:
+        jax.block_until_ready(result)
+        now = time.perf_counter()
+        self.seconds[phase] = self.seconds.get(phase, 0.0) + now - self._mark
+        self._mark = now
+        return result
+
+    def read(self) -> dict[str, float]:
+        """The sums so far, then zero."""
+        seconds, self.seconds = self.seconds, {}
+        return seconds
 
 
 class Trainer:
@@ -125,13 +142,33 @@ class Trainer:
         )
         self.disc_tx = optax.adam(config.amp.learning_rate)
         self.use_style = prior is not None and config.reward.w_style > 0
-        self.reset = self._split_reset(env.reset)
-        # evaluations start standing, with the task's share of air waypoints
-        standing = lambda key: env.reset(key, env.config.air_probability, 0.0)  # noqa: E731
-        self.reset_standing = self._split_reset(standing)
-        self.rollout = jax.jit(self._rollout)
+        if env.config.impl == "mujoco":
+            self._init_mujoco()
+        else:
+            self.reset = self._split_reset(env.reset)
+            # evaluations start standing, with the task's share of air waypoints
+            standing = lambda key: env.reset(key, env.config.air_probability, 0.0)  # noqa: E731
+            self.reset_standing = self._split_reset(standing)
+            self.rollout = jax.jit(self._rollout)
         kept = replicated(self.mesh)
         self.update = jax.jit(self._update, out_shardings=(kept, kept, kept))
+
+    def _init_mujoco(self) -> None:
+        """The MuJoCo backend: one Batch for training and one for evaluations (each holds the
+        physics of the states it made), on every core this process may use."""
+        if self.devices != 1:
+            raise TrainError("[env] impl = 'mujoco' runs on one host: [run] devices must be 1")
+        n = self.config.ppo.num_envs
+        self.physics = [BatchPhysics(self.env, n, index=k) for k in range(2)]
+        self.reset = self.physics[0].reset
+        air = self.env.config.air_probability
+        self.reset_standing = lambda keys: self.physics[1].reset(keys, air, 0.0)
+        self.clock = PhaseClock()
+        self._draws = jax.jit(self._draws_fn, static_argnums=1)
+        self._act_control = jax.jit(self._act_control_fn)
+        self._advance_record = jax.jit(self._advance_record_fn)
+        self._stack = jax.jit(self._stack_fn)
+        self.rollout = self._rollout_mujoco
 
     def _split_reset(self, reset: Any) -> Any:
         """`reset` of one environment as a jitted batch reset of keys split over the mesh."""
@@ -179,10 +216,9 @@ class Trainer:
         """rollout_steps steps of every environment; actions mean + noise * std * N(0, 1)
         (noise 1 to learn, 0 to evaluate). The N(0, 1) draws are made for the whole batch,
         split over the devices like the environments, then each device steps its part."""
-        shape = (state.obs.shape[0], self.env.action_size)
-        draw = lambda k: jax.random.normal(k, shape)  # noqa: E731
-        normal = jax.vmap(draw)(jax.random.split(key, self.config.ppo.rollout_steps))
-        normal = jax.lax.with_sharding_constraint(normal, batch_sharding(self.mesh, 1))
+        normal = jax.lax.with_sharding_constraint(
+            self._draws_fn(key, state.obs.shape[0]), batch_sharding(self.mesh, 1)
+        )
         steps = jax.shard_map(
             self._steps,
             mesh=self.mesh,
@@ -193,6 +229,12 @@ class Trainer:
         state, records = steps(learner, state, normal, noise)
         return state, Rollout(**records, last_obs=state.obs)
 
+    def _draws_fn(self, key: jax.Array, envs: int) -> jax.Array:
+        """The rollout's N(0, 1) action draws, (T, envs, actions)."""
+        shape = (envs, self.env.action_size)
+        draw = lambda k: jax.random.normal(k, shape)  # noqa: E731
+        return jax.vmap(draw)(jax.random.split(key, self.config.ppo.rollout_steps))
+
     def _steps(
         self, learner: Learner, state: EnvState, normal: jax.Array, noise: jax.Array
     ) -> tuple[EnvState, dict[str, Any]]:
@@ -200,44 +242,88 @@ class Trainer:
         step = jax.vmap(self.env.step)
 
         def one(state: EnvState, z: jax.Array) -> tuple[EnvState, dict[str, Any]]:
-            obs, chi, target = state.obs, state.chi, state.target
-            mean, log_std, value = self.net.apply(learner.policy, learner.obs_norm(obs))
-            action = mean + noise * jnp.exp(log_std) * z
-            log_p = log_prob(mean, log_std, action)
-            state, info = step(state, action)
-            _, _, final_value = self.net.apply(learner.policy, learner.obs_norm(info.final_obs))
-            record = {
-                "obs": obs,
-                "actions": action,
-                "means": mean,
-                "log_stds": log_std,
-                "log_probs": log_p,
-                "values": value,
-                "final_values": final_value,
-                "task_reward": info.task_reward,
-                "terms": info.terms,
-                "done": info.done,
-                "truncated": info.truncated,
-                "chi": chi,
-                "chi_next": info.chi_next,
-                "hit": info.hit,
-                "timed_out": info.timed_out,
-                "hit_steps": info.hit_steps,
-                "approach_speed": info.approach_speed,
-                "airborne": info.airborne,
-                "feet_down": info.feet_down,
-                "switches": info.switches,
-                "episode_steps": info.episode_steps,
-                "episode_reached": info.episode_reached,
-                "prior_reset": info.prior_reset,
-                "qpos": state.data.qpos,
-                "qvel": state.data.qvel,
-                "thrust": state.thrust,
-                "target": target,
-            }
-            return state, record
+            acted = self._act(learner, state.obs, z, noise)
+            after, info = step(state, acted["actions"])
+            return after, self._record(learner, state, acted, info, after)
 
         return jax.lax.scan(one, state, normal)
+
+    def _act(
+        self, learner: Learner, obs: jax.Array, z: jax.Array, noise: jax.Array
+    ) -> dict[str, jax.Array]:
+        """The policy at `obs`: actions mean + noise * std * z, their log-probabilities, values."""
+        mean, log_std, value = self.net.apply(learner.policy, learner.obs_norm(obs))
+        action = mean + noise * jnp.exp(log_std) * z
+        return {
+            "obs": obs,
+            "actions": action,
+            "means": mean,
+            "log_stds": log_std,
+            "log_probs": log_prob(mean, log_std, action),
+            "values": value,
+        }
+
+    def _record(
+        self, learner: Learner, before: EnvState, acted: dict, info: StepInfo, after: EnvState
+    ) -> dict[str, Any]:
+        """One step's row of the Rollout."""
+        _, _, final_value = self.net.apply(learner.policy, learner.obs_norm(info.final_obs))
+        return acted | {
+            "final_values": final_value,
+            "chi": before.chi,
+            "info": info,
+            "qpos": after.data.qpos,
+            "qvel": after.data.qvel,
+            "thrust": after.thrust,
+            "target": before.target,
+        }
+
+    # -- rollout on the MuJoCo backend ------------------------------------------------------------
+    def _rollout_mujoco(
+        self, learner: Learner, state: EnvState, key: jax.Array, noise: jax.Array
+    ) -> tuple[EnvState, Rollout]:
+        """`_rollout` with the physics in MuJoCo C: per control step, one jitted call for the
+        policy and the controls, the Batch's step on all cores, one jitted call for the task
+        and the record, then the resets of the environments whose episode ended."""
+        physics = self.physics[int(state.data.batch[0])]
+        normal = self._draws(key, state.obs.shape[0])
+        rows, clock = [], self.clock
+        for z in normal:
+            clock.start()
+            acted, ctrl, jet, thrust = self._act_control(learner, state, z, noise)
+            ctrl = clock.lap("policy", np.asarray(ctrl))
+            kinematics = clock.lap("physics", physics.step(ctrl))
+            stepped, info, pose, row = self._advance_record(
+                learner, state, kinematics, jet, thrust, acted
+            )
+            done = clock.lap("task", np.asarray(info.done))
+            state = clock.lap("resets", physics.restart(stepped, pose, done))
+            rows.append((row, state.data.qpos, state.data.qvel, state.thrust))
+        return state, self._stack(rows, state.obs)
+
+    def _act_control_fn(
+        self, learner: Learner, state: EnvState, z: jax.Array, noise: jax.Array
+    ) -> tuple[dict, jax.Array, Any, jax.Array]:
+        acted = self._act(learner, state.obs, z, noise)
+        return acted, *jax.vmap(self.env.control)(state, acted["actions"])
+
+    def _advance_record_fn(
+        self,
+        learner: Learner,
+        state: EnvState,
+        kinematics: Any,
+        jet: Any,
+        thrust: jax.Array,
+        acted: dict,
+    ) -> tuple[EnvState, StepInfo, Any, dict]:
+        stepped, info, pose = jax.vmap(self.env.advance)(state, kinematics, jet, thrust)
+        return stepped, info, pose, self._record(learner, state, acted, info, stepped)
+
+    def _stack_fn(self, rows: list, last_obs: jax.Array) -> Rollout:
+        """The per-step rows as a time-major Rollout (qpos, qvel, thrust after any reset)."""
+        records = [r | {"qpos": q, "qvel": v, "thrust": t} for r, q, v, t in rows]
+        stacked = jax.tree.map(lambda *x: jnp.stack(x), *records)
+        return Rollout(**stacked, last_obs=last_obs)
 
     # -- update ---------------------------------------------------------------------------------
     def _style(
@@ -247,11 +333,11 @@ class Trainer:
         of every step and the discriminator's accuracy on this rollout's transitions."""
         amp = self.config.amp
         k_expert, k_policy = jax.random.split(key)
-        policy_rows = batch.chi_next.reshape(-1, learner.amp_norm.mean.size)
+        policy_rows = batch.info.chi_next.reshape(-1, learner.amp_norm.mean.size)
         rows = jax.random.randint(k_policy, (amp.batch_size,), 0, policy_rows.shape[0])
         expert_rows, _ = prior.sample(k_expert, amp.batch_size)
         amp_norm = learner.amp_norm.update(jnp.concatenate([policy_rows[rows], expert_rows]))
-        logits = self.disc.apply(learner.disc, amp_norm(batch.chi), amp_norm(batch.chi_next))
+        logits = self.disc.apply(learner.disc, amp_norm(batch.chi), amp_norm(batch.info.chi_next))
         return amp_norm, style_reward(logits, amp.style_scale), jnp.mean(logits < 0)
 
     def _split_rows(self, tree: Any) -> Any:
@@ -358,12 +444,14 @@ class Trainer:
             amp_norm, style, rollout_accuracy = self._style(learner, batch, prior, k_style)
             metrics["disc_policy_accuracy_rollout"] = rollout_accuracy
         else:
-            style = jnp.zeros_like(batch.task_reward)
+            style = jnp.zeros_like(batch.info.task_reward)
         w_style = config.reward.w_style if self.use_style else 0.0
-        reward = total_reward(batch.task_reward, style, config.reward.w_task, w_style)
-        reward = reward + ppo.gamma * batch.final_values * batch.truncated
+        reward = total_reward(batch.info.task_reward, style, config.reward.w_task, w_style)
+        reward = reward + ppo.gamma * batch.final_values * batch.info.truncated
         _, _, last_value = self.net.apply(learner.policy, learner.obs_norm(batch.last_obs))
-        advantages, returns = gae(reward, batch.values, batch.done, last_value, ppo.gamma, ppo.lam)
+        advantages, returns = gae(
+            reward, batch.values, batch.info.done, last_value, ppo.gamma, ppo.lam
+        )
 
         flat = lambda x: x.reshape(-1, *x.shape[2:])  # noqa: E731
         data = {
@@ -379,7 +467,7 @@ class Trainer:
         policy, opt, lr, parts = self._ppo_epochs(learner, data, k_epochs)
         disc, disc_opt = learner.disc, learner.disc_opt
         if self.use_style:
-            pairs = flat(batch.chi), flat(batch.chi_next)
+            pairs = flat(batch.chi), flat(batch.info.chi_next)
             buffer = buffer.add(*pairs, k_replay, amp.replay_keep)
             disc, disc_opt, disc_parts = self._disc_steps(
                 learner, amp_norm, pairs, buffer, prior, k_disc
@@ -396,7 +484,7 @@ class Trainer:
             obs_norm=learner.obs_norm.update(batch.obs),
             amp_norm=amp_norm,
             iteration=learner.iteration + 1,
-            env_steps=learner.env_steps + batch.done.size,
+            env_steps=learner.env_steps + batch.info.done.size,
         )
         metrics |= {name: value.mean() for name, value in parts.items()}
         metrics |= rollout_metrics(batch, self.env.t_max, self.env.config.control_hz)
@@ -416,32 +504,32 @@ def rollout_metrics(batch: Rollout, t_max: jax.Array, control_hz: float) -> dict
     """Per-step means and per-episode figures of a rollout (episodes that ended in it; NaN
     when none did). The gait figures: speed toward the waypoint, the share of steps on one
     foot, and touch-downs plus lift-offs per foot per second."""
-    ended = batch.done.sum()
-    hits, missed = batch.hit.sum(), batch.timed_out.sum()
+    ended = batch.info.done.sum()
+    hits, missed = batch.info.hit.sum(), batch.info.timed_out.sum()
 
     def per_episode(x: jax.Array) -> jax.Array:
-        total = (x * batch.done).sum() / jnp.maximum(ended, 1)
+        total = (x * batch.info.done).sum() / jnp.maximum(ended, 1)
         return jnp.where(ended > 0, total, jnp.nan)
 
-    falls = (batch.done & ~batch.truncated).sum()
-    out = {f"reward_{name}": value.mean() for name, value in batch.terms.items()}
+    falls = (batch.info.done & ~batch.info.truncated).sum()
+    out = {f"reward_{name}": value.mean() for name, value in batch.info.terms.items()}
     return out | {
-        "task_reward": batch.task_reward.mean(),
-        "approach_speed": batch.approach_speed.mean(),
-        "single_support_share": (batch.feet_down.sum(-1) == 1).mean(),
-        "contact_switches_per_second": batch.switches.mean() * control_hz,
-        "airborne_share": batch.airborne.mean(),
+        "task_reward": batch.info.task_reward.mean(),
+        "approach_speed": batch.info.approach_speed.mean(),
+        "single_support_share": (batch.info.feet_down.sum(-1) == 1).mean(),
+        "contact_switches_per_second": batch.info.switches.mean() * control_hz,
+        "airborne_share": batch.info.airborne.mean(),
         "thrust_usage": (batch.thrust / t_max).mean(),
         "episodes": ended,
-        "episode_seconds": per_episode(batch.episode_steps) / control_hz,
-        "waypoints_per_episode": per_episode(batch.episode_reached),
+        "episode_seconds": per_episode(batch.info.episode_steps) / control_hz,
+        "waypoints_per_episode": per_episode(batch.info.episode_reached),
         "seconds_to_waypoint": jnp.where(
-            hits > 0, batch.hit_steps.sum() / jnp.maximum(hits, 1) / control_hz, jnp.nan
+            hits > 0, batch.info.hit_steps.sum() / jnp.maximum(hits, 1) / control_hz, jnp.nan
         ),
         "waypoints_missed_share": missed / jnp.maximum(hits + missed, 1),
         "falls": falls,
         "falls_per_episode": jnp.where(ended > 0, falls / jnp.maximum(ended, 1), jnp.nan),
         "prior_reset_share": jnp.where(
-            ended > 0, batch.prior_reset.sum() / jnp.maximum(ended, 1), jnp.nan
+            ended > 0, batch.info.prior_reset.sum() / jnp.maximum(ended, 1), jnp.nan
         ),
     }

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -21,14 +22,19 @@ from motionkit.outputs import check_out, claim_out, write_json_atomic, write_tex
 from motionkit.robot import Robot
 from motionkit.train.amp import PriorData
 from motionkit.train.checkpoint import NAME, load_checkpoint, save_checkpoint
-from motionkit.train.config import TrainConfig
-from motionkit.train.devices import resolve_devices
+from motionkit.train.config import RunConfig, TrainConfig
+from motionkit.train.devices import resolve_devices, resolve_impl
 from motionkit.train.env import Env
 from motionkit.train.evaluate import evaluate, save_rollout
+from motionkit.train.learner import Learner, Trainer
 from motionkit.train.metrics_log import MetricsLog
 from motionkit.train.priors import load_priors
-from motionkit.train.train import Learner, Trainer
 
+PHYSICS = {
+    "jax": "MJX (JAX)",
+    "warp": "MJX (MuJoCo Warp)",
+    "mujoco": "MuJoCo C (mujoco.batch)",
+}
 # what a run writes in its folder (see the module doc)
 OUTPUTS = (
     "config.toml", "train.csv", "eval.csv", "tensorboard", NAME, "rollouts", "summary.json"
@@ -80,6 +86,7 @@ def train(
     if not resume and checkpoint.exists():
         raise TrainError(f"{out} holds a run already: pass --resume or another --out")
     check_out(out, OUTPUTS, TrainError)
+    config = replace(config, env=replace(config.env, impl=resolve_impl(config.env.impl)))
     prior, prior_summary = load_priors(config.priors, robot, config.env.control_hz)
     env = make_env(config, robot, prior)
     trainer = Trainer(config, env)
@@ -101,7 +108,7 @@ def train(
     platform = trainer.mesh.devices.flat[0].platform
     progress(
         f"{config.ppo.num_envs} envs x {config.ppo.rollout_steps} steps per iteration on "
-        f"{trainer.devices} {platform} device(s), MJX {config.env.impl}, "
+        f"{trainer.devices} {platform} device(s), physics {PHYSICS[config.env.impl]}, "
         f"scenario {config.env.scenario}, jets {config.env.jet}, priors "
         f"{', '.join(config.priors) or 'none'}; obs {env.obs_size}, actions {env.action_size}"
     )
@@ -110,11 +117,13 @@ def train(
     evaluation: dict[str, float] = {}
     evaluated_at = -1
     steps_per_iteration = config.ppo.num_envs * config.ppo.rollout_steps
+    iterations_from = (int(learner.iteration), time.perf_counter())
     while int(learner.iteration) < run.iterations:
         if run.max_minutes and time.perf_counter() - start > 60 * run.max_minutes:
             progress(f"stopped after {run.max_minutes} minutes")
             break
         tick = time.perf_counter()
+        phases = _phases(trainer)  # (what an evaluation spent is dropped)
         learner, carry, metrics = trainer.iteration(learner, carry)
         iteration = int(learner.iteration)
         last = {k: float(v) for k, v in metrics.items()}
@@ -124,9 +133,13 @@ def train(
             "env_steps_per_second": steps_per_iteration / seconds,
             "wall_seconds": time.perf_counter() - start,
         }
+        phases = _phases(trainer)
+        if phases:
+            phases["update"] = seconds - sum(phases.values())
+            last |= {f"seconds_{name}": value for name, value in phases.items()}
         log.write("train", iteration, last)
         if iteration % run.log_every == 0 or iteration == 1:
-            progress(_line(iteration, last))
+            progress(_line(iteration, last) + _time_left(run, iteration, start, iterations_from))
         final = iteration >= run.iterations
         evaluated = (run.eval_every and iteration % run.eval_every == 0) or final
         if evaluated:
@@ -182,6 +195,24 @@ def run_evaluation(
         meta | {"priors": sorted(config.priors)},
     )
     return metrics
+
+
+def _phases(trainer: Trainer) -> dict[str, float]:
+    """Seconds per rollout phase since the last call (MuJoCo backend; {} on MJX)."""
+    clock = getattr(trainer, "clock", None)
+    return {} if clock is None else clock.read()
+
+
+def _time_left(run: RunConfig, iteration: int, start: float, since: tuple[int, float]) -> str:
+    """', about M min left' at the pace since `since` (iteration, time), within max_minutes."""
+    done = iteration - since[0]
+    if done < 1:
+        return ""
+    now = time.perf_counter()
+    left = (run.iterations - iteration) * (now - since[1]) / done
+    if run.max_minutes:
+        left = min(left, 60 * run.max_minutes - (now - start))
+    return f", about {max(left, 0.0) / 60:.1f} min left"
 
 
 def _line(iteration: int, m: dict[str, float]) -> str:
