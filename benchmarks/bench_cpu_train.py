@@ -8,9 +8,10 @@ discriminator and its replay run too):
 - MJX-JAX (`impl = "jax"`), the same recipe;
 - MuJoCo C with the GPU walking recipe's networks ([1024, 512] actor, critic, discriminator).
 For each: env-steps/s of the rollout alone and of whole iterations (rollout + update), after
-one iteration that compiles. The MuJoCo rows add where an iteration's time goes (the
-rollout's phases as `PhaseClock` measures them, and the update), and the first line gives the
-ceiling of the physics alone: `Batch.step` of the same environments, standing, no policy.
+WARM_UP iterations that compile. The MuJoCo rows add where an iteration's time goes (the
+rollout's phases as `PhaseClock` measures them, the rest of the rollout, and the update), and
+the first line gives the ceiling of the physics alone: `Batch.step` of the same environments,
+standing, no policy.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from motionkit.robot import ironcub
 from motionkit.train.config import PriorConfig, TrainConfig
 
 GPU_NETWORKS = (1024, 512)
+WARM_UP = 3  # iterations before the timed ones
 
 
 def recipe(envs: int, prior: Path) -> TrainConfig:
@@ -83,7 +85,8 @@ def measure(config: TrainConfig, iterations: int) -> dict[str, float]:
     prior, _ = load_priors(config.priors, robot, config.env.control_hz)
     trainer = Trainer(config, make_env(config, robot, prior))
     learner, carry = trainer.init(0)
-    learner, carry, _ = trainer.iteration(learner, carry)  # compiles
+    for _ in range(WARM_UP):  # compiles (the update twice, the resets per batch size)
+        learner, carry, _ = trainer.iteration(learner, carry)
     clock = getattr(trainer, "clock", None)
     if clock is not None:
         clock.read()
@@ -102,7 +105,9 @@ def measure(config: TrainConfig, iterations: int) -> dict[str, float]:
     row = {"rollout": samples / rollout, "iteration": samples / (rollout + update)}
     total = rollout + update
     if clock is not None:
-        row |= {f"share {k}": v / total for k, v in clock.read().items()}
+        phases = clock.read()
+        phases["other"] = rollout - sum(phases.values())  # the draws, the stacking of the record
+        row |= {f"share {k}": v / total for k, v in phases.items()}
     return row | {"share update": update / total}
 
 

@@ -20,8 +20,11 @@ The config is a TOML recipe with tables [env], [reward], [ppo], [amp], [run] and
   [priors.walk]
   paths = ["datasets/walk"]        # MCAP clips or folders (relative to the working directory)
   weight = 1.0
-Recipes: paper_gpu (the paper's settings, 4,096 environments on one GPU) and
-tiny_cpu (seconds per iteration on a CPU). A key left out keeps its default.
+Recipes (`motionkit recipes train`): walk_cpu, fly_cpu, walk_fly_cpu (hours on a CPU, resumed
+across sessions), walk_gpu, fly_gpu, walk_fly_gpu (minutes on one GPU), paper_gpu (the paper's
+settings) and tiny_cpu (seconds per iteration). A key left out keeps its default.
+Physics ([env] impl): "auto" (the default) is MuJoCo MJX on a GPU and MuJoCo C (mujoco.batch,
+every core) on a CPU; "jax", "warp" and "mujoco" choose one. The run prints which it used.
 
 Outputs in --out: config.toml (resolved), train.csv and eval.csv (metrics per iteration and
 per evaluation), tensorboard/ (with tensorboardX installed), checkpoint.msgpack (the latest
@@ -32,6 +35,7 @@ Evaluation figures: waypoints reached per episode, share of time airborne and on
 thrust usage (mean T / T_max), falls per episode, episode duration.
 
   motionkit train --config tiny_cpu --out runs/tiny --priors none
+  motionkit train --config walk_cpu --out runs/walk              # then --resume to go on
   motionkit train --config paper_gpu --out runs/paper
   motionkit train --config paper_gpu --out runs/paper2 --devices 2   # 2 GPUs of this host
   motionkit train ablation --config paper_gpu --out runs/ablation"""
@@ -42,10 +46,11 @@ def add_commands(
 ) -> None:
     parser = stages.add_parser(
         "train",
-        help="train the walking-and-flying AMP policy on MJX (PPO + discriminator)",
+        help="train the walking-and-flying AMP policy (PPO + discriminator)",
         description="Train one policy that imitates the walking and flying priors (AMP style "
-        "reward) and reaches waypoints on the ground and in the air (task reward), in MuJoCo "
-        "MJX on the robot's MJCF. `motionkit train ablation` runs the four prior settings.",
+        "reward) and reaches waypoints on the ground and in the air (task reward), on the "
+        "robot's MJCF in MuJoCo MJX (GPU) or MuJoCo C (CPU). `motionkit train ablation` runs "
+        "the four prior settings.",
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

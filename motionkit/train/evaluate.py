@@ -13,77 +13,37 @@ import numpy as np
 from motionkit.dataset import Metadata, Source, Trajectory, write
 from motionkit.robot import Robot
 from motionkit.robot.geometry import angular_velocity
+from motionkit.train.figures import rollout_figures
 from motionkit.train.learner import Learner, Trainer
 
-FIELDS = (
-    "done",
-    "truncated",
-    "hit",
-    "timed_out",
-    "hit_steps",
-    "approach_speed",
-    "airborne",
-    "feet_down",
-    "switches",
-    "task_reward",
-)  # of StepInfo
-FIRST_ONLY = ("qpos", "target")  # kept for environment 0 alone: its clip is saved
+KEPT = ("qpos", "target")  # kept for environment 0 alone: its clip is saved
+# besides every StepInfo field but these (observations and features: large, and unused here)
+DROPPED = ("final_obs", "chi_next")
 
 
 def evaluate(
     trainer: Trainer, learner: Learner, key: jax.Array, chunks: int
 ) -> tuple[dict[str, float], dict[str, np.ndarray]]:
     """`chunks` rollouts of rollout_steps without action noise from standing starts (episodes
-    that end restart standing). Figures per episode count the episodes still running at the
-    end as (partial) episodes."""
+    that end restart standing), their figures (`rollout_figures`, prefixed "eval_") and the
+    arrays: every StepInfo field but DROPPED, the thrust, and KEPT for environment 0."""
     k_reset, k_run = jax.random.split(key)
     state = trainer.reset_standing(jax.random.split(k_reset, trainer.config.ppo.num_envs))
-    parts: dict[str, list[np.ndarray]] = {name: [] for name in (*FIELDS, "thrust", *FIRST_ONLY)}
+    infos, thrust, kept = [], [], {name: [] for name in KEPT}
     for k in jax.random.split(k_run, chunks):
         state, batch = trainer.rollout(learner, state, k, jnp.array(0.0))
-        for name in FIELDS:
-            parts[name].append(np.asarray(getattr(batch.info, name)))
-        parts["thrust"].append(np.asarray(batch.thrust))
-        for name in FIRST_ONLY:
-            parts[name].append(np.asarray(getattr(batch, name)[:, :1]))
-    arrays = {name: np.concatenate(value) for name, value in parts.items()}
-    done, truncated = arrays["done"], arrays["truncated"]
-    steps, envs = done.shape
-    ended = int(done.sum())
-    episodes = ended + envs
-    control_hz = trainer.config.env.control_hz
-    lengths = _episode_lengths(done)
-    hits = int(arrays["hit"].sum())
-    feet_down = arrays["feet_down"]
-    metrics = {
-        "eval_waypoints_per_episode": float(hits / episodes),
-        "eval_approach_speed": float(arrays["approach_speed"].mean()),
-        "eval_single_support_share": float((feet_down.sum(-1) == 1).mean()),
-        "eval_contact_switches_per_second": float(arrays["switches"].mean() * control_hz),
-        "eval_seconds_to_waypoint": float(arrays["hit_steps"].sum() / hits / control_hz)
-        if hits
-        else float("nan"),
-        "eval_waypoints_missed": float(arrays["timed_out"].sum() / episodes),
-        "eval_airborne_share": float(arrays["airborne"].mean()),
-        "eval_ground_share": float(1.0 - arrays["airborne"].mean()),
-        "eval_thrust_usage": float((arrays["thrust"] / np.asarray(trainer.env.t_max)).mean()),
-        "eval_falls_per_episode": float((done & ~truncated).sum() / episodes),
-        "eval_episode_seconds": float(np.mean(lengths) / control_hz)
-        if lengths
-        else steps / control_hz,
-        "eval_task_reward": float(arrays["task_reward"].mean()),
-        "eval_episodes": float(episodes),
-    }
-    return metrics, arrays
-
-
-def _episode_lengths(done: np.ndarray) -> list[int]:
-    """Lengths of the episodes that ended, for every environment (time-major done)."""
-    lengths = []
-    for column in done.T:
-        ends = np.flatnonzero(column)
-        lengths += np.diff(np.concatenate([[-1], ends])).tolist()
-    return lengths
+        empty = {name: np.zeros((*batch.info.done.shape, 0)) for name in DROPPED}
+        infos.append(jax.tree.map(np.asarray, batch.info.replace(**empty)))
+        thrust.append(np.asarray(batch.thrust))
+        for name in KEPT:
+            kept[name].append(np.asarray(getattr(batch, name)[:, :1]))
+    info = jax.tree.map(lambda *x: np.concatenate(x), *infos)
+    arrays = {name: np.asarray(getattr(info, name)) for name in info.__dataclass_fields__}
+    arrays |= {"thrust": np.concatenate(thrust)} | {k: np.concatenate(v) for k, v in kept.items()}
+    hz = trainer.config.env.control_hz
+    figures = rollout_figures(info, arrays["thrust"], trainer.env.t_max, hz)
+    metrics = {f"eval_{name}": float(value) for name, value in figures.items()}
+    return metrics | {"eval_ground_share": 1.0 - metrics["eval_airborne_share"]}, arrays
 
 
 def first_episode(

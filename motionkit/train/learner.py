@@ -35,6 +35,7 @@ from motionkit.train.env import Env, EnvState, StepInfo
 from motionkit.train.env.mujoco import BatchPhysics
 from motionkit.train.env.rewards import style_reward, total_reward
 from motionkit.train.env.waypoints import air_share
+from motionkit.train.figures import rollout_figures
 from motionkit.train.normalize import RunningNorm
 from motionkit.train.ppo import (
     ActorCritic,
@@ -487,7 +488,9 @@ class Trainer:
             env_steps=learner.env_steps + batch.info.done.size,
         )
         metrics |= {name: value.mean() for name, value in parts.items()}
-        metrics |= rollout_metrics(batch, self.env.t_max, self.env.config.control_hz)
+        metrics |= rollout_figures(
+            batch.info, batch.thrust, self.env.t_max, self.env.config.control_hz
+        )
         metrics |= {"style_reward": style.mean(), "reward": reward.mean(), "learning_rate": lr}
         return learner, buffer, metrics
 
@@ -498,38 +501,3 @@ class Trainer:
         env_state, batch = self.rollout(learner, env_state, k_rollout, jnp.array(1.0))
         learner, buffer, metrics = self.update(learner, carry.buffer, batch, self.prior, k_update)
         return learner, Carry(env_state, buffer, key), metrics | {"air_share": share}
-
-
-def rollout_metrics(batch: Rollout, t_max: jax.Array, control_hz: float) -> dict[str, jax.Array]:
-    """Per-step means and per-episode figures of a rollout (episodes that ended in it; NaN
-    when none did). The gait figures: speed toward the waypoint, the share of steps on one
-    foot, and touch-downs plus lift-offs per foot per second."""
-    ended = batch.info.done.sum()
-    hits, missed = batch.info.hit.sum(), batch.info.timed_out.sum()
-
-    def per_episode(x: jax.Array) -> jax.Array:
-        total = (x * batch.info.done).sum() / jnp.maximum(ended, 1)
-        return jnp.where(ended > 0, total, jnp.nan)
-
-    falls = (batch.info.done & ~batch.info.truncated).sum()
-    out = {f"reward_{name}": value.mean() for name, value in batch.info.terms.items()}
-    return out | {
-        "task_reward": batch.info.task_reward.mean(),
-        "approach_speed": batch.info.approach_speed.mean(),
-        "single_support_share": (batch.info.feet_down.sum(-1) == 1).mean(),
-        "contact_switches_per_second": batch.info.switches.mean() * control_hz,
-        "airborne_share": batch.info.airborne.mean(),
-        "thrust_usage": (batch.thrust / t_max).mean(),
-        "episodes": ended,
-        "episode_seconds": per_episode(batch.info.episode_steps) / control_hz,
-        "waypoints_per_episode": per_episode(batch.info.episode_reached),
-        "seconds_to_waypoint": jnp.where(
-            hits > 0, batch.info.hit_steps.sum() / jnp.maximum(hits, 1) / control_hz, jnp.nan
-        ),
-        "waypoints_missed_share": missed / jnp.maximum(hits + missed, 1),
-        "falls": falls,
-        "falls_per_episode": jnp.where(ended > 0, falls / jnp.maximum(ended, 1), jnp.nan),
-        "prior_reset_share": jnp.where(
-            ended > 0, batch.info.prior_reset.sum() / jnp.maximum(ended, 1), jnp.nan
-        ),
-    }

@@ -95,7 +95,7 @@ SCRIPT = textwrap.dedent(
     recipe, out, walk, flight = sys.argv[1:]
     config = TrainConfig.from_toml(Path(recipe))
     priors = {"walk": PriorConfig((walk,)), "flight": PriorConfig((flight,))}
-    config = replace(config, priors=priors)
+    config = replace(config, priors=priors, env=replace(config.env, impl="jax"))  # sharded MJX
     robot = ironcub()
     prior, _ = load_priors(config.priors, robot, config.env.control_hz)
     assert jax.local_device_count() == 2

@@ -9,7 +9,8 @@ As in MJX, the link and site poses read after a step are those of the last subst
 
 Only the environments whose episode ended are reset: their rows of the Batch go back to the
 standing keyframe, take the new pose and get their kinematics; the task's `start` runs for
-those rows alone, padded to a power of two so that few shapes are ever compiled.
+those rows alone, padded to a power of two (at least MIN_ROWS) so that few shapes are ever
+compiled.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from mujoco import batch as mj_batch
 from motionkit.train.env.task import Env, EnvState, ResetPose
 
 READ = ("qpos", "qvel", "xpos", "xmat", "site_xpos")  # the fields the task reads
+MIN_ROWS = 16  # restarts are padded to at least this many rows (at most the batch)
 
 
 @struct.dataclass
@@ -110,11 +112,13 @@ class BatchPhysics:
         ended = np.flatnonzero(done)
         if not ended.size:
             return state
-        rows = np.full(1 << int(ended.size - 1).bit_length(), ended[-1])
-        rows[: ended.size] = ended
+        count = ended.size
+        rows = np.full(
+            min(max(MIN_ROWS, 1 << int(count - 1).bit_length()), self.num_envs), ended[-1]
+        )
+        rows[:count] = ended
         picked = _pick(pose, rows)
-        size = ended.size
-        self.place(ended, np.asarray(picked.qpos)[:size], np.asarray(picked.qvel)[:size])
+        self.place(ended, np.asarray(picked.qpos)[:count], np.asarray(picked.qvel)[:count])
         return self._start(self.env, state, picked, self.kinematics(rows), rows)
 
 

@@ -1,0 +1,53 @@
+"""The figures of a rollout, computed in one place for training and evaluation alike.
+
+Per step (means over every step and environment): the task reward and its terms, the
+horizontal speed toward the waypoint, the share of steps on one foot, touch-downs plus
+lift-offs per foot per second, the airborne share, the thrust per T_max. Per episode: over the
+episodes that ended in the rollout (their length, waypoints, falls); when none ended, over the
+episodes still running, as far as they got (a partial figure, so that a rollout shorter than
+an episode still reports one).
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from motionkit.train.env import StepInfo
+
+
+def rollout_figures(
+    info: StepInfo, thrust: jax.Array, t_max: jax.Array, control_hz: float
+) -> dict[str, jax.Array]:
+    """The figures of time-major (T, N, ...) step records and thrusts (T, N, jets)."""
+    done = info.done
+    ended = done.sum()
+    last = jnp.zeros_like(done).at[-1].set(True)
+    counted = jnp.where(ended > 0, done, last)  # the steps whose episode figures count
+    episodes = counted.sum()
+    hits, missed = info.hit.sum(), info.timed_out.sum()
+    falls = (done & ~info.truncated).sum()
+
+    def per_episode(x: jax.Array) -> jax.Array:
+        return (x * counted).sum() / episodes
+
+    def share(part: jax.Array, whole: jax.Array) -> jax.Array:
+        return jnp.where(whole > 0, part / jnp.maximum(whole, 1), jnp.nan)
+
+    terms = {f"reward_{name}": value.mean() for name, value in info.terms.items()}
+    return terms | {
+        "task_reward": info.task_reward.mean(),
+        "approach_speed": info.approach_speed.mean(),
+        "single_support_share": (info.feet_down.sum(-1) == 1).mean(),
+        "contact_switches_per_second": info.switches.mean() * control_hz,
+        "airborne_share": info.airborne.mean(),
+        "thrust_usage": (thrust / t_max).mean(),
+        "episodes": episodes.astype(jnp.float32),
+        "episode_seconds": per_episode(info.episode_steps) / control_hz,
+        "waypoints_per_episode": per_episode(info.episode_reached),
+        "seconds_to_waypoint": share(info.hit_steps.sum(), hits) / control_hz,
+        "waypoints_missed_share": share(missed, hits + missed),
+        "falls": falls,
+        "falls_per_episode": falls / episodes,
+        "prior_reset_share": share(info.prior_reset.sum(), ended),
+    }
