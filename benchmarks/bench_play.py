@@ -1,6 +1,6 @@
 """`motionkit play`'s loop: the real-time factor (simulated / wall seconds, compilation not
-counted) of a 10 s rollout with plain MuJoCo, against the same loop converting the whole state
-with `mjx.put_data` every control step, in the same run.
+counted) of a 10 s rollout on the training's MuJoCo backend (`mujoco.batch`, one environment),
+against the same loop on plain `mujoco.mj_step` and one MjData, in the same run.
 
     python benchmarks/bench_play.py                  # the paper recipe's actor, untrained
     python benchmarks/bench_play.py --policy runs/tiny
@@ -16,15 +16,17 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
+from typing import Any
 
 import jax
 import jax.numpy as jnp
+import mujoco
 import numpy as np
 
 from motionkit import recipes
 from motionkit.robot import ironcub
 from motionkit.train.config import TrainConfig
-from motionkit.train.env.mjx import mjx
+from motionkit.train.env.mujoco import READ, Kinematics
 from motionkit.train.normalize import RunningNorm
 from motionkit.train.play import Player, roll_out
 from motionkit.train.policy import Policy, cpu_env, load_policy, policy_env
@@ -52,15 +54,28 @@ def untrained(recipe: str) -> Policy:
     return Policy(Path(recipe), config, actor, RunningNorm.create(env.obs_size), {}, {})
 
 
-class PutDataPlayer(Player):
-    """The baseline: the observation of `mjx.put_data` of the whole MuJoCo state."""
+class PlainPlayer(Player):
+    """The baseline: `mj_step` on one MjData, the five arrays the task reads copied out."""
 
-    def observe(self, target: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-        data = mjx.put_data(self.model, self.data)
-        fields = {name: getattr(data, name) for name in ("qpos", "qvel", "xpos", "site_xpos")}
-        fields["xmat"] = data.xmat.reshape(-1, 9)
-        obs, feet, lift = self._observe(fields, self.thrust, jnp.asarray(target, jnp.float32))
-        return np.asarray(obs), np.asarray(feet), float(lift)
+    def reset(self, qpos: np.ndarray, qvel: np.ndarray, thrust: np.ndarray) -> None:
+        self.plain = mujoco.MjData(self.model)
+        mujoco.mj_resetDataKeyframe(self.model, self.plain, self.model.key("stand").id)
+        self.plain.qpos[:], self.plain.qvel[:] = qpos, qvel
+        mujoco.mj_kinematics(self.model, self.plain)
+        self.data = self.plain
+        super().reset(qpos, qvel, thrust)
+        self.kinematics = self._kinematics()
+
+    def _kinematics(self) -> Kinematics:
+        arrays = {name: getattr(self.plain, name)[None].astype(np.float32) for name in READ}
+        arrays["xmat"] = arrays["xmat"].reshape(1, -1, 3, 3)
+        return Kinematics(**arrays, batch=np.zeros(1, np.int32))
+
+    def step(self, action: Any) -> None:
+        self.jet, self.thrust, ctrl = self.control(action)
+        self.plain.ctrl[:] = np.asarray(ctrl)
+        mujoco.mj_step(self.model, self.plain, nstep=self.env.config.substeps)
+        self.kinematics = self._kinematics()
 
 
 def main() -> None:
@@ -74,7 +89,7 @@ def main() -> None:
     config = env.config
     print(f"actor {list(policy.hidden)}, {config.substeps} substeps at {config.control_hz:g} Hz")
     factors = {}
-    for name, kind in (("play (five arrays)", Player), ("baseline (put_data)", PutDataPlayer)):
+    for name, kind in (("play (mujoco.batch)", Player), ("baseline (mj_step)", PlainPlayer)):
         player = kind(env)
         tick = time.perf_counter()
         played = roll_out(player, act, [FAR], SECONDS)
@@ -85,8 +100,8 @@ def main() -> None:
             f"{played.wall_seconds:.2f} s: {played.real_time_factor:.1f}x real time; "
             f"compilation {played.compile_seconds:.1f} s (whole call {total:.1f} s)"
         )
-    ours = factors["play (five arrays)"]
-    ratio = ours / factors["baseline (put_data)"]
+    ours = factors["play (mujoco.batch)"]
+    ratio = ours / factors["baseline (mj_step)"]
     print(
         f"play: {ours:.1f}x real time, {ratio:.1f}x the baseline's; target >= {TARGET:g}x: "
         f"{'PASS' if ours >= TARGET else 'FAIL'}"

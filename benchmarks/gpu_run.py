@@ -18,7 +18,6 @@ import argparse
 import csv
 import json
 import math
-import os
 import platform
 import shutil
 import socket
@@ -32,7 +31,7 @@ from typing import Any
 
 from motionkit import recipes
 from motionkit.errors import MotionkitError, TrainError
-from motionkit.outputs import claim_out, strict_json, write_text_atomic
+from motionkit.outputs import strict_json, write_text_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
 CHECKPOINT = "checkpoint.msgpack"
@@ -182,6 +181,8 @@ def with_overrides(config: Any, args: argparse.Namespace) -> Any:
 
 def prepare_out(out: Path, resume: Path | None) -> None:
     """Refuse to train over a run; put the checkpoint to resume from in place."""
+    from motionkit.train.checkpoint import place_checkpoint
+
     checkpoint = out / CHECKPOINT
     if resume is None:
         if checkpoint.exists():
@@ -190,23 +191,8 @@ def prepare_out(out: Path, resume: Path | None) -> None:
                 f"{checkpoint}, or pass another --out"
             )
         return
-    if not resume.is_file():
-        raise TrainError(f"--resume {resume}: no such checkpoint file")
-    if checkpoint.exists():
-        if os.path.samefile(checkpoint, resume):
-            return
-        raise TrainError(
-            f"--resume {resume}: {out} holds another run ({checkpoint}); resume into a new "
-            f"--out, or pass --resume {checkpoint}"
-        )
-    claim_out(out, [CHECKPOINT], TrainError)  # motionkit's: the trainer may resume from it
-    temporary = out / f".{CHECKPOINT}.{os.getpid()}.tmp"
-    try:
-        shutil.copyfile(resume, temporary)
-        temporary.replace(checkpoint)
-    finally:
-        temporary.unlink(missing_ok=True)
-    print(f"gpu_run: copied {resume} to {checkpoint}", flush=True)
+    if place_checkpoint(out, resume, "--resume"):
+        print(f"gpu_run: copied {resume} to {checkpoint}", flush=True)
 
 
 def read_columns(path: Path) -> dict[str, list[Any]]:

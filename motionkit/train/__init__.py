@@ -1,4 +1,5 @@
-"""The slim AMP + PPO trainer on MuJoCo MJX, for any robot with a spec.
+"""The slim AMP + PPO trainer (MuJoCo MJX on a GPU, MuJoCo C on a CPU), for any robot with a
+spec.
 
     from motionkit.robot import load_robot
     from motionkit.train import TrainConfig, train_policy
@@ -11,9 +12,9 @@
     played, route = play_policy(load_policy("policy"), robot, Path("play.mcap"))
 
 `train_policy` is `motionkit.train.runner.train` (a run in a folder, resumable; the config's
-PriorConfig tables name its priors); `make_env` builds the MJX environment of a config and
+PriorConfig tables name its priors); `make_env` builds the environment of a config and
 `Trainer` its learner; `play_policy` rolls a policy (`load_policy`: a run folder, a package of
-`export_policy` or a shipped policy) out with plain MuJoCo into a clip; `enable_compile_cache`
+`export_policy` or a shipped policy) out with MuJoCo C into a clip; `enable_compile_cache`
 keeps XLA's programs in the user cache. Configs import without the [train] extra (JAX, flax,
 optax, MuJoCo); the rest imports it on first use, and a missing one is a TrainError naming the
 extra (`require_train_extra` checks it up front).

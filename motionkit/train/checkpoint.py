@@ -8,6 +8,7 @@ from one starts its moments afresh and keeps all else (the adapted learning rate
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -16,7 +17,7 @@ import numpy as np
 from flax import serialization
 
 from motionkit.errors import TrainError
-from motionkit.outputs import atomic_output
+from motionkit.outputs import atomic_output, claim_out
 from motionkit.train.learner import Learner
 
 NAME = "checkpoint.msgpack"
@@ -70,3 +71,25 @@ def _state(path: Path) -> dict[str, Any]:
     if not isinstance(state, dict) or "policy" not in state:
         raise TrainError(f"{path}: not a checkpoint (no policy in it)")
     return state
+
+
+def place_checkpoint(out: Path, source: Path, option: str) -> bool:
+    """Put checkpoint `source` (a file, maybe carried from another machine) into run folder
+    `out` to resume from, claimed as motionkit's; True when it was copied, False when it is
+    the run's own. A TrainError naming `option` when `source` is missing or `out` holds
+    another run."""
+    out, source = Path(out), Path(source)
+    checkpoint = out / NAME
+    if not source.is_file():
+        raise TrainError(f"{option} {source}: no such checkpoint file")
+    if checkpoint.exists():
+        if os.path.samefile(checkpoint, source):
+            return False
+        raise TrainError(
+            f"{option} {source}: {out} holds another run ({checkpoint}); resume into a new "
+            f"--out, or pass {option} {checkpoint}"
+        )
+    claim_out(out, [NAME], TrainError)  # motionkit's: the trainer may resume from it
+    with atomic_output(checkpoint) as stream:
+        stream.write(source.read_bytes())
+    return True

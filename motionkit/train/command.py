@@ -8,6 +8,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from motionkit.errors import TrainError
+from motionkit.outputs import check_out
 from motionkit.recipes import argument
 from motionkit.robot import load_robot
 from motionkit.train.runtime import enable_compile_cache, require_train_extra
@@ -56,6 +57,13 @@ def add_commands(
     )
     _common(parser, robot_source, required=False)
     parser.add_argument("--resume", action="store_true", help="continue the run in --out")
+    parser.add_argument(
+        "--resume-from",
+        type=Path,
+        metavar="CHECKPOINT",
+        help="continue from this checkpoint file (full or slim; from another run folder or "
+        "machine) in --out, which gets a copy of it",
+    )
     parser.set_defaults(handler=_train)
     actions = parser.add_subparsers(dest="train_command", metavar="ACTION")
     ablation = actions.add_parser(
@@ -168,13 +176,21 @@ def _train(args: argparse.Namespace) -> int:
     if args.config is None or args.out is None:
         raise TrainError("train needs --config TOML and --out DIR (see motionkit train --help)")
     require_train_extra()
-    from motionkit.train.runner import train
+    from motionkit.train.runner import OUTPUTS, train
 
     config = _config(args)
     config = config.select_priors(parse_priors(args.priors, list(config.priors)))
     robot = load_robot(args.urdf, args.spec)
     enable_compile_cache()
-    summary = train(config, args.out, robot, resume=args.resume, progress=_print)
+    resume = args.resume
+    if args.resume_from is not None:
+        from motionkit.train.checkpoint import place_checkpoint
+
+        check_out(args.out, OUTPUTS, TrainError)  # (before the copy: a foreign file refused)
+        if place_checkpoint(args.out, args.resume_from, "--resume-from"):
+            _print(f"copied {args.resume_from} to {args.out}")
+        resume = True
+    summary = train(config, args.out, robot, resume=resume, progress=_print)
     print(f"wrote {args.out}: {summary['iterations']} iterations in {summary['seconds']:.0f} s")
     return 0
 

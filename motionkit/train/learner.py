@@ -1,6 +1,9 @@
-"""The learner: one jitted rollout (lax.scan over the vmapped environment) and one jitted
+"""The learner: PPO composed with adversarial motion priors (`motionkit.train.style`: the
+discriminator, its replay and the style reward as one part). One rollout, then one jitted
 update (style rewards, GAE, PPO epochs over minibatches, then discriminator steps on prior
 transitions against the policy's, half from this rollout and half from the replay buffer).
+The rollout is one jitted `lax.scan` over the vmapped environment on MJX, and a host loop
+around jitted policy and task steps on MuJoCo C (`motionkit.train.env.mujoco`).
 
     trainer = Trainer(config, env)        # env.prior: PriorData or None (no style reward)
     learner, carry = trainer.init(seed)
@@ -28,12 +31,12 @@ from jax.sharding import Mesh
 from jax.sharding import PartitionSpec as P
 
 from motionkit.errors import TrainError
-from motionkit.train.amp import Discriminator, PriorData, ReplayBuffer, discriminator_loss
+from motionkit.train.amp import PriorData, ReplayBuffer
 from motionkit.train.config import TrainConfig
 from motionkit.train.devices import AXIS, batch_sharding, make_mesh, replicated
 from motionkit.train.env import Env, EnvState, StepInfo
 from motionkit.train.env.mujoco import BatchPhysics
-from motionkit.train.env.rewards import style_reward, total_reward
+from motionkit.train.env.rewards import total_reward
 from motionkit.train.env.waypoints import air_share
 from motionkit.train.figures import rollout_figures
 from motionkit.train.normalize import RunningNorm
@@ -45,6 +48,7 @@ from motionkit.train.ppo import (
     log_prob,
     ppo_loss,
 )
+from motionkit.train.style import AdversarialStyle
 
 
 @struct.dataclass
@@ -137,11 +141,10 @@ class Trainer:
             ppo.learn_std,
             tuple(float(a) for a in env.rest_action),
         )
-        self.disc = Discriminator(config.amp.hidden)
+        self.style = AdversarialStyle(config.amp, ppo.epochs * ppo.minibatches)
         self.policy_tx = optax.chain(
             optax.clip_by_global_norm(ppo.max_grad_norm), optax.scale_by_adam()
         )
-        self.disc_tx = optax.adam(config.amp.learning_rate)
         self.use_style = prior is not None and config.reward.w_style > 0
         if env.config.impl == "mujoco":
             self._init_mujoco()
@@ -185,14 +188,13 @@ class Trainer:
         k_policy, k_disc, k_env, k_run = jax.random.split(key, 4)
         env, ppo = self.env, self.config.ppo
         policy = self.net.init(k_policy, jnp.zeros((1, env.obs_size)))
-        chi = jnp.zeros((1, env.chi_size))
-        disc = self.disc.init(k_disc, chi, chi)
+        disc, disc_opt = self.style.init(k_disc, env.chi_size)
         learner = Learner(
             policy=policy,
             policy_opt=self.policy_tx.init(policy),
             learning_rate=jnp.array(ppo.learning_rate),
             disc=disc,
-            disc_opt=self.disc_tx.init(disc),
+            disc_opt=disc_opt,
             obs_norm=RunningNorm.create(env.obs_size),
             amp_norm=RunningNorm.create(env.chi_size),
             iteration=jnp.array(0),
@@ -327,20 +329,6 @@ class Trainer:
         return Rollout(**stacked, last_obs=last_obs)
 
     # -- update ---------------------------------------------------------------------------------
-    def _style(
-        self, learner: Learner, batch: Rollout, prior: PriorData, key: jax.Array
-    ) -> tuple[RunningNorm, jax.Array, jax.Array]:
-        """The AMP normaliser updated with as many prior rows as policy rows, the style reward
-        of every step and the discriminator's accuracy on this rollout's transitions."""
-        amp = self.config.amp
-        k_expert, k_policy = jax.random.split(key)
-        policy_rows = batch.info.chi_next.reshape(-1, learner.amp_norm.mean.size)
-        rows = jax.random.randint(k_policy, (amp.batch_size,), 0, policy_rows.shape[0])
-        expert_rows, _ = prior.sample(k_expert, amp.batch_size)
-        amp_norm = learner.amp_norm.update(jnp.concatenate([policy_rows[rows], expert_rows]))
-        logits = self.disc.apply(learner.disc, amp_norm(batch.chi), amp_norm(batch.info.chi_next))
-        return amp_norm, style_reward(logits, amp.style_scale), jnp.mean(logits < 0)
-
     def _split_rows(self, tree: Any) -> Any:
         """Rows of a minibatch split over the devices (where they split evenly), so that each
         device computes the loss of its rows and the gradient is their mean."""
@@ -389,46 +377,6 @@ class Trainer:
         (policy, opt, lr), parts = jax.lax.scan(epoch, start, jax.random.split(key, ppo.epochs))
         return policy, opt, lr, jax.tree.map(jnp.ravel, parts)
 
-    def _disc_steps(
-        self,
-        learner: Learner,
-        amp_norm: RunningNorm,
-        pairs: tuple[jax.Array, jax.Array],
-        buffer: ReplayBuffer,
-        prior: PriorData,
-        key: jax.Array,
-    ) -> tuple[Any, Any, dict[str, jax.Array]]:
-        """Discriminator steps: prior pairs (label 1) against policy pairs (label 0), half of
-        them from this rollout and half from the replay buffer."""
-        amp, ppo = self.config.amp, self.config.ppo
-        count = amp.updates or ppo.epochs * ppo.minibatches
-        half = amp.batch_size // 2
-
-        def one(carry: tuple, k: jax.Array) -> tuple[tuple, dict[str, jax.Array]]:
-            disc, opt = carry
-            k_expert, k_rollout, k_replay = jax.random.split(k, 3)
-            rows = jax.random.randint(k_rollout, (half,), 0, pairs[0].shape[0])
-            replay = buffer.sample(k_replay, half)
-            policy = tuple(
-                jnp.concatenate([p[rows], r]) for p, r in zip(pairs, replay, strict=True)
-            )
-            grads, parts = jax.grad(discriminator_loss, has_aux=True)(
-                disc,
-                self.disc.apply,
-                tuple(map(amp_norm, prior.sample(k_expert, amp.batch_size))),
-                tuple(map(amp_norm, policy)),
-                amp.gradient_penalty,
-                amp.logit_reg,
-                amp.weight_decay,
-            )
-            updates, opt = self.disc_tx.update(grads, opt, disc)
-            return (optax.apply_updates(disc, updates), opt), parts
-
-        (disc, opt), parts = jax.lax.scan(
-            one, (learner.disc, learner.disc_opt), jax.random.split(key, count)
-        )
-        return disc, opt, parts
-
     def _update(
         self,
         learner: Learner,
@@ -437,12 +385,14 @@ class Trainer:
         prior: PriorData | None,
         key: jax.Array,
     ) -> tuple[Learner, ReplayBuffer, dict[str, jax.Array]]:
-        config, ppo, amp = self.config, self.config.ppo, self.config.amp
-        k_style, k_epochs, k_replay, k_disc = jax.random.split(key, 4)
+        config, ppo = self.config, self.config.ppo
+        k_style, k_epochs, k_disc = jax.random.split(key, 3)
         amp_norm = learner.amp_norm
         metrics: dict[str, jax.Array] = {}
         if self.use_style:
-            amp_norm, style, rollout_accuracy = self._style(learner, batch, prior, k_style)
+            amp_norm, style, rollout_accuracy = self.style.reward(
+                learner.disc, amp_norm, prior, batch.chi, batch.info.chi_next, k_style
+            )
             metrics["disc_policy_accuracy_rollout"] = rollout_accuracy
         else:
             style = jnp.zeros_like(batch.info.task_reward)
@@ -469,9 +419,8 @@ class Trainer:
         disc, disc_opt = learner.disc, learner.disc_opt
         if self.use_style:
             pairs = flat(batch.chi), flat(batch.info.chi_next)
-            buffer = buffer.add(*pairs, k_replay, amp.replay_keep)
-            disc, disc_opt, disc_parts = self._disc_steps(
-                learner, amp_norm, pairs, buffer, prior, k_disc
+            disc, disc_opt, buffer, disc_parts = self.style.train(
+                disc, disc_opt, amp_norm, pairs, buffer, prior, k_disc
             )
             parts |= disc_parts
             # the discriminator before this iteration's steps (at iteration 1: the initial one)

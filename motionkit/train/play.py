@@ -1,12 +1,11 @@
-"""A policy rolled out on the CPU with plain MuJoCo, from the standing pose toward waypoints, as
+"""A policy rolled out on the CPU with MuJoCo C, from the standing pose toward waypoints, as
 a motion clip.
 
-The physics is `mujoco.mj_step` on the environment's own model (its MJCF, options and substeps
-per control step). The observation, the PD targets and the jets are the environment's own
-functions (`Env.observe`, `Env.feet_down`, `Env.joint_targets`, `Env.jets`), jitted for one
-robot and fed the MuJoCo state: the arrays they read (FIELDS) replace those of an MJX Data made
-once by `mjx.put_data` (converting the whole state every step costs about 5 ms, copying five
-arrays a few microseconds). tests/train/test_play.py checks the loop against `Env.step`.
+The physics is the training's MuJoCo backend (`motionkit.train.env.mujoco.BatchPhysics`, one
+environment) on the environment's own model (its MJCF, options and substeps per control step).
+The observation, the PD targets and the jets are the environment's own functions
+(`Env.observe`, `Env.feet_down`, `Env.control`), jitted for one robot and fed the backend's
+`Kinematics`. tests/train/test_play.py checks the loop against MJX's `Env.step`.
 
 Waypoints are fed as in training: the current one relative to the base (the observation's last
 block), reached when the base comes within `waypoint_radius`; the next one follows. Unlike in
@@ -21,11 +20,11 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import jax
 import jax.numpy as jnp
-import mujoco
 import numpy as np
 
 from motionkit.dataset import write
@@ -34,38 +33,36 @@ from motionkit.outputs import check_out, claim_out
 from motionkit.robot import Robot
 from motionkit.train.env import Env, waypoints
 from motionkit.train.env import terrain as terrain_lib
-from motionkit.train.env.mjx import mjx
+from motionkit.train.env.mujoco import BatchPhysics, Kinematics
 from motionkit.train.evaluate import first_episode
 from motionkit.train.policy import Policy, policy_env
 
-FIELDS = ("qpos", "qvel", "xpos", "xmat", "site_xpos")  # what Env.observe and feet_down read
 FLYING_SHARE = 0.5  # a way with more steps airborne than this was flown
 
 
 class Player:
-    """One robot of `env` stepped by plain MuJoCo at the environment's control rate."""
+    """One robot of `env` on the training's MuJoCo backend (`BatchPhysics` of one
+    environment, one thread) at the environment's control rate. `data` holds live views of
+    its positions and velocities (`data.qpos`, `data.qvel`)."""
 
     def __init__(self, env: Env) -> None:
         self.env = env
         self.model = env.mj_model
-        self.data = mujoco.MjData(self.model)
-        self.substeps = env.config.substeps
-        template = mjx.put_data(self.model, self.data)
+        self.physics = BatchPhysics(env, 1, threads=1)
+        fields = self.physics.fields
+        self.data = SimpleNamespace(qpos=fields["qpos"][0], qvel=fields["qvel"][0])
 
         def observe(
-            fields: dict[str, jax.Array], thrust: jax.Array, target: jax.Array
+            data: Kinematics, thrust: jax.Array, target: jax.Array
         ) -> tuple[jax.Array, jax.Array, jax.Array]:
-            # MuJoCo keeps rotation matrices flat (9,), MJX as (3, 3)
-            shaped = {k: v.reshape(getattr(template, k).shape) for k, v in fields.items()}
-            data = template.replace(**shaped)
+            data = jax.tree.map(lambda x: x[0], data)
             base = data.qpos[:3]
             lift = base[2] - terrain_lib.height_at(env.terrain, base[:2])
             return env.observe(data, thrust, target), env.feet_down(data), lift
 
         def control(jet: Any, thrust: jax.Array, action: jax.Array) -> tuple[Any, ...]:
-            action = jnp.clip(action, -1.0, 1.0)  # as Env.step
-            jet, thrust = env.jets.step(jet, thrust, action[env.num_joints :])
-            ctrl = jnp.concatenate([env.joint_targets(action[: env.num_joints]), thrust])
+            state = SimpleNamespace(jet=jet, thrust=thrust)  # what Env.control reads
+            ctrl, jet, thrust = env.control(state, action)
             return jet, thrust, ctrl
 
         self._observe, self._control = jax.jit(observe), jax.jit(control)
@@ -81,24 +78,21 @@ class Player:
         return qpos, np.zeros(self.model.nv), thrust
 
     def reset(self, qpos: np.ndarray, qvel: np.ndarray, thrust: np.ndarray) -> None:
-        """Start at this state (as `Env.reset`: the keyframe's other values, the link positions
-        of `qpos`, the jet model resting at `thrust`)."""
-        model, data = self.model, self.data
-        mujoco.mj_resetDataKeyframe(model, data, model.key("stand").id)
-        data.qpos[:], data.qvel[:] = qpos, qvel
-        mujoco.mj_kinematics(model, data)
+        """Start at this state (as an episode of the environment starts: the keyframe's other
+        values, the link positions of `qpos`, the jet model resting at `thrust`)."""
+        self.kinematics = self.physics.place(np.array([0]), qpos[None], qvel[None])
         self.thrust = jnp.asarray(thrust, jnp.float32)
         self.jet = self.env.jets.state_at(self.thrust)
 
     def observe(self, target: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
         """(observation, feet on the ground, base height above the terrain) now, pursuing
         `target`."""
-        fields = {name: getattr(self.data, name).astype(np.float32) for name in FIELDS}
-        obs, feet, lift = self._observe(fields, self.thrust, np.asarray(target, np.float32))
+        target = np.asarray(target, np.float32)
+        obs, feet, lift = self._observe(self.kinematics, self.thrust, target)
         return np.asarray(obs), np.asarray(feet), float(lift)
 
     def control(self, action: Any) -> tuple[Any, jax.Array, jax.Array]:
-        """(jet model state, thrust, ctrl) after `action` from the state now (as `Env.step`:
+        """(jet model state, thrust, ctrl) after `action` from the state now (`Env.control`:
         the action clipped, the jets stepped, the PD targets mapped); changes nothing."""
         return self._control(self.jet, self.thrust, action)
 
@@ -106,8 +100,7 @@ class Player:
         """One control step: jets and PD targets from `action`, then the environment's
         substeps of MuJoCo physics."""
         self.jet, self.thrust, ctrl = self.control(action)
-        self.data.ctrl[:] = np.asarray(ctrl)
-        mujoco.mj_step(self.model, self.data, nstep=self.substeps)
+        self.kinematics = self.physics.step(np.asarray(ctrl)[None])
 
 
 @dataclass

@@ -22,9 +22,9 @@ shipped with motionkit (motionkit/policies/NAME; the default, when one ships).
 The robot starts standing and pursues the waypoints one after the other, as in training: the
 current one relative to the base in the observation, reached within [env] waypoint_radius of
 the base (0.3 m); unlike training, a waypoint has no deadline. The run ends after the last
-waypoint, at a fall or after --seconds. The physics is plain MuJoCo (mj_step) on the training
-environment's model, at its control rate and substeps; the observation, PD targets and jets are
-the environment's own functions.
+waypoint, at a fall or after --seconds. The physics is MuJoCo C (the training's CPU backend,
+mujoco.batch) on the training environment's model, at its control rate and substeps; the
+observation, PD targets and jets are the environment's own functions.
 
 Output: OUT/NAME.mcap, a motion clip (`motionkit dataset validate`, `motionkit view`) with the
 waypoints in its metadata. Printed: per waypoint when it was reached, walking or flying (the
@@ -41,7 +41,7 @@ def add_commands(
 ) -> None:
     parser = stages.add_parser(
         "play",
-        help="roll a trained policy out on the CPU (plain MuJoCo) toward waypoints; write a clip",
+        help="roll a trained policy out on the CPU (MuJoCo C) toward waypoints; write a clip",
         description="Roll a trained walking-and-flying policy out from the standing pose toward "
         "waypoints, in real time or faster on the CPU, and write the motion as an MCAP clip.",
         epilog=EPILOG,

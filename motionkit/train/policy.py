@@ -186,12 +186,12 @@ def _norm(state: dict[str, Any]) -> RunningNorm:
 
 # -- the environment a policy acts in -----------------------------------------------------------
 def cpu_env(config: TrainConfig, robot: Robot) -> Env:
-    """The environment of `config` for `robot` on MJX-JAX, for this machine's CPU (a GPU
-    run's impl and devices set aside)."""
+    """The environment of `config` for `robot` on the MuJoCo backend, for this machine's CPU
+    (a GPU run's impl and devices set aside)."""
     from motionkit.train.runner import make_env
 
     config = replace(
-        config, env=replace(config.env, impl="jax"), run=replace(config.run, devices=1)
+        config, env=replace(config.env, impl="mujoco"), run=replace(config.run, devices=1)
     )
     return make_env(config, robot)
 

@@ -76,7 +76,9 @@ def test_warp_missing_names_what_is_missing(monkeypatch: pytest.MonkeyPatch) -> 
 
 
 def test_impl_is_checked(tiny_config) -> None:
-    with pytest.raises(TrainError, match="'impl' should be one of 'auto', 'jax', 'warp', 'mujoco', got 'cpp'"):
+    with pytest.raises(
+        TrainError, match="'impl' should be one of 'auto', 'jax', 'warp', 'mujoco', got 'cpp'"
+    ):
         replace(tiny_config.env, impl="cpp")
 
 

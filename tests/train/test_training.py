@@ -117,3 +117,40 @@ def test_missing_prior_is_a_clear_error(tiny_config, robot, tmp_path: Path) -> N
     with pytest.raises(TrainError, match="prior 'walk': no/such/folder: no such file"):
         train(config, tmp_path / "out", robot)
     assert not (tmp_path / "out").exists()
+
+
+def test_resume_from_a_carried_checkpoint_into_a_new_folder(
+    run_folder: Path, config_with_priors, robot, tmp_path: Path, capsys
+) -> None:
+    """`motionkit train --resume-from FILE` (a checkpoint carried from another machine)
+    starts a new run folder at the checkpoint's iteration."""
+    from motionkit.cli import main
+
+    carried = tmp_path / "carried.msgpack"
+    carried.write_bytes((run_folder / "checkpoint.msgpack").read_bytes())
+    config = learning_config(config_with_priors)
+    recipe = tmp_path / "recipe.toml"
+    recipe.write_text(replace(config, run=replace(config.run, eval_every=0)).to_toml())
+    out = tmp_path / "new"
+    args = ["train", "--config", str(recipe), "--out", str(out), "--resume-from", str(carried)]
+    assert main([*args, "--iterations", str(ITERATIONS + 1)]) == 0
+    printed = capsys.readouterr().out
+    assert f"copied {carried} to {out}" in printed
+    assert f"resumed {out} at iteration {ITERATIONS}" in printed
+    assert read_csv(out / "train.csv")["iteration"].tolist() == [ITERATIONS + 1]
+
+
+def test_place_checkpoint_refusals(tmp_path: Path) -> None:
+    from motionkit.train.checkpoint import NAME, place_checkpoint
+
+    source = tmp_path / "carried.msgpack"
+    with pytest.raises(TrainError, match=r"^--resume-from .*carried.msgpack: no such checkpoint"):
+        place_checkpoint(tmp_path / "out", source, "--resume-from")
+    assert not (tmp_path / "out").exists()
+    source.write_bytes(b"learner")
+    assert place_checkpoint(tmp_path / "out", source, "--resume-from")
+    own = tmp_path / "out" / NAME
+    assert own.read_bytes() == b"learner"
+    assert not place_checkpoint(tmp_path / "out", own, "--resume-from")  # the run's own
+    with pytest.raises(TrainError, match="holds another run"):
+        place_checkpoint(tmp_path / "out", source, "--resume-from")
