@@ -140,6 +140,7 @@ class Trainer:
             ppo.init_std,
             ppo.learn_std,
             tuple(float(a) for a in env.rest_action),
+            ppo.mean_init_scale,
         )
         self.style = AdversarialStyle(config.amp, ppo.epochs * ppo.minibatches)
         self.policy_tx = optax.chain(

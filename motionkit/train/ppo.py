@@ -14,7 +14,8 @@ LOG_2PI = jnp.log(2 * jnp.pi)
 
 class ActorCritic(nn.Module):
     """A Gaussian policy (MLP mean, state-independent std, learned or fixed) and a value MLP
-    (ELU). The mean starts near `action_bias` (the environment's rest action)."""
+    (ELU). The mean starts near `action_bias` (the environment's rest action): the mean layer's
+    weights start at std `mean_init_scale`."""
 
     actions: int
     actor_hidden: Sequence[int]
@@ -22,6 +23,7 @@ class ActorCritic(nn.Module):
     init_std: float = 1.0
     learn_std: bool = True
     action_bias: Sequence[float] | None = None
+    mean_init_scale: float = 0.01  # std of the mean layer's initial weights
 
     @nn.compact
     def __call__(self, obs: jax.Array) -> tuple[jax.Array, jax.Array, jax.Array]:
@@ -33,7 +35,7 @@ class ActorCritic(nn.Module):
         )
         mean = nn.Dense(
             self.actions,
-            kernel_init=nn.initializers.normal(0.01),
+            kernel_init=nn.initializers.normal(self.mean_init_scale),
             bias_init=lambda *_: bias,
         )(x)
         if self.learn_std:
