@@ -37,6 +37,7 @@ _LAZY = {
     "export_policy": ("policy", "export_policy"),
     "load_policy": ("policy", "load_policy"),
     "play_policy": ("play", "play"),
+    "draw_curves": ("curves", "draw_curves"),
 }
 
 __all__ = [

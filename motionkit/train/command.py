@@ -98,6 +98,18 @@ def add_commands(
     )
     robot_source(export)
     export.set_defaults(handler=_export)
+    curves = actions.add_parser(
+        "curves",
+        help="draw a run's training curves (RUN_DIR/curves.png)",
+        description="Draw RUN_DIR/train.csv and eval.csv as one PNG of nine panels over "
+        "env-steps: speed toward the waypoint, single support, contact switches, falls and "
+        "waypoints per episode, airborne share, thrust usage, the discriminator's accuracy, "
+        "task and style reward. A run redraws it at every evaluation; this redraws it (or "
+        "draws it elsewhere with --out) for a run in progress or one from before.",
+    )
+    curves.add_argument("run", type=Path, metavar="RUN_DIR", help="OUT of `motionkit train`")
+    curves.add_argument("--out", type=Path, help="PNG to write (default RUN_DIR/curves.png)")
+    curves.set_defaults(handler=_curves)
 
 
 def _common(
@@ -216,6 +228,13 @@ def _export(args: argparse.Namespace) -> int:
     sizes = export_policy(args.run, args.out, robot, half=args.half)
     files = ", ".join(f"{name} {size / 1e3:.1f} kB" for name, size in sizes.items())
     print(f"wrote {args.out}: {files} ({sum(sizes.values()) / 1e6:.2f} MB)")
+    return 0
+
+
+def _curves(args: argparse.Namespace) -> int:
+    from motionkit.train.curves import draw_curves
+
+    print(f"wrote {draw_curves(args.run, args.out)}")
     return 0
 
 

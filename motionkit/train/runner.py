@@ -5,6 +5,7 @@ OUT/train.csv, eval.csv     metrics per iteration / per evaluation (+ OUT/tensor
 OUT/checkpoint.msgpack      the latest learner (resume with resume=True)
 OUT/rollouts/iter_N.mcap    the first evaluation episode of environment 0, for the viewer
 OUT/summary.json            priors, last training and evaluation figures, timings
+OUT/curves.png              the training curves (redrawn at every evaluation)
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from motionkit.robot import Robot
 from motionkit.train.amp import PriorData
 from motionkit.train.checkpoint import NAME, load_checkpoint, save_checkpoint
 from motionkit.train.config import RunConfig, TrainConfig
+from motionkit.train.curves import draw_curves
 from motionkit.train.devices import resolve_devices, resolve_impl
 from motionkit.train.env import Env
 from motionkit.train.evaluate import evaluate, save_rollout
@@ -37,7 +39,8 @@ PHYSICS = {
 }
 # what a run writes in its folder (see the module doc)
 OUTPUTS = (
-    "config.toml", "train.csv", "eval.csv", "tensorboard", NAME, "rollouts", "summary.json"
+    "config.toml", "train.csv", "eval.csv", "tensorboard", NAME, "rollouts", "summary.json",
+    "curves.png",
 )  # fmt: skip
 
 
@@ -176,6 +179,7 @@ def _evaluate(
     iteration = int(learner.iteration)
     evaluation = run_evaluation(trainer, learner, robot, out, iteration)
     log.write("eval", iteration, evaluation)
+    draw_curves(out)
     progress(f"eval {iteration}: " + ", ".join(f"{k[5:]} {v:.3g}" for k, v in evaluation.items()))
     return evaluation
 

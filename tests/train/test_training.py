@@ -81,6 +81,7 @@ def test_run_folder_contents(run_folder: Path, robot) -> None:
     share = evaluation["eval_airborne_share"] + evaluation["eval_ground_share"]
     np.testing.assert_allclose(share, 1.0, rtol=1e-5)  # float32 shares
     assert (run_folder / "checkpoint.msgpack").stat().st_size > 1000
+    assert (run_folder / "curves.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     config = TrainConfig.from_toml(run_folder / "config.toml")
     assert config.run.iterations == ITERATIONS and sorted(config.priors) == ["flight", "walk"]
     summary = json.loads((run_folder / "summary.json").read_text())
