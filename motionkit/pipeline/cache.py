@@ -13,11 +13,10 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from motionkit.digests import digest, file_digest, source_digest, versions
 from motionkit.errors import PipelineError
 from motionkit.outputs import foreign_entries, record_names, write_text_atomic
 
-__all__ = ["STAGING", "Outcome", "digest", "file_digest", "run_cached", "source_digest", "versions"]
+__all__ = ["STAGING", "Outcome", "run_cached"]
 
 STAGING = ".staging"  # OUT/.staging/NAME: a stage's folder while it runs
 

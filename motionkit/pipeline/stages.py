@@ -10,7 +10,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from motionkit.digests import digest, file_digest, source_digest, versions
+from motionkit.digests import code_digest, digest, file_digest, versions
 from motionkit.errors import PipelineError
 from motionkit.outputs import write_text_atomic
 from motionkit.pipeline.cache import Outcome, run_cached
@@ -18,6 +18,12 @@ from motionkit.pipeline.config import PipelineConfig
 from motionkit.robot import Robot
 
 JAX = ("jax", "jaxlib", "flax", "optax")
+# the modules the jet-ident stage's work runs (the key hashes them and what they import)
+JET_IDENT_CODE = (
+    "motionkit.jet_ident.benchlog",
+    "motionkit.jet_ident.fit",
+    "motionkit.jet_ident.synthetic",
+)
 
 
 @dataclass
@@ -77,7 +83,7 @@ def retarget(ctx: Context) -> Outcome:
         files,
         config.to_dict(),
         ctx.robot.model_hash,
-        source_digest(["retarget", "mocap", "dataset", "robot"]),
+        code_digest("motionkit.retarget.batch"),
         versions("placo", "pin"),
     )
 
@@ -113,7 +119,7 @@ def trajopt(ctx: Context) -> Outcome:
         {s.name: s.config.to_dict() for s in solves},
         stage.replay,
         ctx.robot.model_hash,
-        source_digest(["trajopt", "dataset", "robot"]),
+        code_digest("motionkit.trajopt.runner", "motionkit.trajopt.library"),
         versions("casadi", "adam-robotics", "mujoco"),
     )
 
@@ -147,7 +153,7 @@ def jet_ident(ctx: Context) -> Outcome:
     from motionkit.jet_ident.config import JetIdentConfig
 
     config = JetIdentConfig.from_toml(ctx.config.resolve("jet_ident", ctx.config.jet_ident.recipe))
-    parts = (config.to_dict(), source_digest(["jet_ident"]), versions(*JAX))
+    parts = (config.to_dict(), code_digest(*JET_IDENT_CODE), versions(*JAX))
 
     def work(folder: Path) -> str:
         from motionkit.jet_ident.benchlog import write_log
@@ -171,7 +177,11 @@ def jet_ident(ctx: Context) -> Outcome:
 
 def datasets(ctx: Context) -> Outcome:
     keys = (ctx.keys["retarget"], ctx.keys["trajopt"])
-    parts = (keys, ctx.robot.model_hash, source_digest(["dataset"]))
+    parts = (
+        keys,
+        ctx.robot.model_hash,
+        code_digest("motionkit.dataset.collection", "motionkit.dataset.validate"),
+    )
 
     def work(folder: Path) -> str:
         from motionkit.dataset.collection import MotionDataset
@@ -257,7 +267,7 @@ def train(ctx: Context) -> Outcome:
         config.to_dict(),
         [ctx.keys[s] for s in ("retarget", "trajopt", "jet_ident", "datasets")],
         ctx.robot.model_hash,
-        source_digest(["train", "dataset", "robot", "jet_ident"]),
+        code_digest("motionkit.train.runner"),
         versions(*JAX, "mujoco", "mujoco-mjx"),
     )
 

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from motionkit.dataset import Source
-from motionkit.digests import digest, file_digest, source_digest, versions
+from motionkit.digests import code_digest, digest, file_digest, versions
 from motionkit.errors import MotionkitError, RetargetError
 from motionkit.executors import Executor, open_executor
 from motionkit.outputs import claimed_out, inside, up_to_date, write_files, write_text_atomic
@@ -194,7 +194,7 @@ def clip_key(clip: ClipInput, config: RetargetConfig, robot: Robot) -> str:
         asf,
         replace(config, clips=()).to_dict(),
         robot.model_hash,
-        source_digest(["retarget", "mocap", "dataset", "robot"]),
+        code_digest(__name__),
         versions("placo", "pin"),
     )
 

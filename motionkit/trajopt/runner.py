@@ -12,7 +12,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from motionkit.digests import digest, source_digest, versions
+from motionkit.digests import code_digest, digest, versions
 from motionkit.errors import MotionkitError, TrajoptError
 from motionkit.executors import THREAD_VARIABLES, open_executor
 from motionkit.extras import require
@@ -214,7 +214,7 @@ def task_key(task: Task) -> str:
         data,
         replay,
         robot.model_hash,
-        source_digest(["trajopt", "dataset", "robot"]),
+        code_digest(__name__),
         versions("casadi", "adam-robotics", "mujoco"),
     )
 

@@ -9,9 +9,10 @@ from mocap_synth import arms_down, mini_bvh
 from motionkit import recipes
 from motionkit.cli import main
 from motionkit.dataset import read
+from motionkit.digests import digest
 from motionkit.errors import PipelineError
 from motionkit.pipeline import run_pipeline
-from motionkit.pipeline.cache import digest, run_cached
+from motionkit.pipeline.cache import run_cached
 from motionkit.pipeline.config import PipelineConfig
 from motionkit.robot import load_robot
 
