@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import importlib
+import io
 
 from motionkit.errors import MotionkitError
 
@@ -19,11 +21,13 @@ EXTRAS: dict[str, tuple[str, ...]] = {
 def require(
     extra: str, what: str, error: type[MotionkitError], modules: tuple[str, ...] = ()
 ) -> None:
-    """Import the extra's modules (or just `modules` of it); `error` naming `what`, the module
-    missing and the extra to install when one cannot be imported."""
+    """Import the extra's modules (or just `modules` of it) quietly (MJX prints a line for each
+    optional backend it lacks); `error` naming `what`, the module missing and the extra to
+    install when one cannot be imported."""
     for module in modules or EXTRAS[extra]:
         try:
-            importlib.import_module(module)
+            with contextlib.redirect_stdout(io.StringIO()):
+                importlib.import_module(module)
         except ImportError as exc:
             missing = exc.name or module
             raise error(

@@ -30,3 +30,18 @@ def test_trajopt_without_its_extra_exits_with_one_line(
     err = capsys.readouterr().err
     assert code == 2 and "pip install 'motionkit[trajopt]'" in err
     assert "Traceback" not in err and not (tmp_path / "out").exists()
+
+
+def test_the_train_extra_is_checked_without_a_word_about_absent_backends() -> None:
+    """MJX prints "Failed to import warp" on import where warp is absent: the check (every
+    train, play and pipeline command makes it) imports it in a fresh interpreter silently."""
+    import subprocess
+
+    pytest.importorskip("mujoco.mjx")
+    code = (
+        "from motionkit.errors import TrainError; from motionkit.extras import require; "
+        "require('train', 'training', TrainError); import mujoco.mjx; print('ok')"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == "ok\n" and "warp" not in done.stderr
