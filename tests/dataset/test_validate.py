@@ -101,3 +101,25 @@ def test_unreadable_clip_and_another_robot(tmp_path: Path, robot, clean, toy_rob
     path.write_bytes(path.read_bytes()[:-20])
     checks = validate_clip(path, robot)
     assert len(checks) == 1 and not checks[0].ok and "truncated" in checks[0].detail
+
+
+def test_simulated_clips_may_press_into_their_soft_joint_limits(
+    tmp_path: Path, robot, clean
+) -> None:
+    """MuJoCo's joint limits are soft: a rollout's limb overshoots its stop by about 0.01 rad,
+    which passes; 0.05 rad fails, and so does 0.012 rad in a clip that was not simulated."""
+    hip = robot.joint_names.index("l_hip_pitch")
+    upper = robot.limits.upper[hip]
+    rollout = replace(clean.metadata, kind="rollout", generator="rollout")
+
+    def pressed(excess: float, metadata) -> dict[str, str]:
+        trajectory = edited(
+            clean, "joint_positions", lambda q: q.__setitem__((slice(50, 53), hip), upper + excess)
+        )
+        path = write(tmp_path / "pressed.mcap", replace(trajectory, metadata=metadata), robot)
+        return failures(path, robot)
+
+    soft = "joint position limits (soft in simulation)"
+    assert soft not in pressed(0.012, rollout)
+    assert "3 frames beyond; worst l_hip_pitch by 0.05" in pressed(0.05, rollout)[soft]
+    assert "joint position limits" in pressed(0.012, clean.metadata)

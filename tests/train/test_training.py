@@ -71,6 +71,7 @@ def test_task_reward_rises(run_folder: Path) -> None:
 
 def test_run_folder_contents(run_folder: Path, robot) -> None:
     from motionkit.dataset import read
+    from motionkit.dataset.validate import validate_clip
     from motionkit.train.config import TrainConfig
 
     log = read_csv(run_folder / "train.csv")
@@ -87,6 +88,8 @@ def test_run_folder_contents(run_folder: Path, robot) -> None:
     summary = json.loads((run_folder / "summary.json").read_text())
     assert summary["priors"]["walk"]["clips"] == 1 and summary["iterations"] == ITERATIONS
     clip = read(run_folder / "rollouts" / f"iter_{ITERATIONS}.mcap")
+    checks = validate_clip(run_folder / "rollouts" / f"iter_{ITERATIONS}.mcap", robot)
+    assert all(c.ok or c.warning for c in checks), [c for c in checks if not c.ok]
     assert clip.metadata.kind == "rollout" and clip.frames >= 2
     route = clip.metadata.config["waypoints"]
     assert len(route[0]) == 4 and route[0][0] == 0.0  # [time, x, y, z]
