@@ -18,7 +18,6 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any, Generic, Protocol, TypeVar
 
 from motionkit.errors import MotionkitError
@@ -35,7 +34,6 @@ CONNECT_ATTEMPTS = 2  # a refused client handshake is tried once more
 # of this machine; each node keeps its own cache)
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 LOCAL_ONLY = ("MOTIONKIT_CACHE",)
-KILL_HOOK = "MOTIONKIT_TEST_KILL"  # tests: "DIR,NAME,TIMES": the first TIMES attempts of NAME die
 _ADDRESS = re.compile(r"^(?:ray://)?(?:[A-Za-z0-9._-]+|\[[0-9A-Fa-f:]+\]):(\d{1,5})$")
 
 
@@ -307,21 +305,5 @@ def _in_worker(fn: TaskFn, name: str, item: Any) -> Any:
 
 
 def _run_task(fn: TaskFn, name: str, item: Any, shared: Any) -> Any:
-    _kill_hook(name)
+    """One task in a worker (local or Ray), by name: the seam where tests inject crashes."""
     return fn(item, shared)
-
-
-def _kill_hook(name: str) -> None:
-    """Tests only (MOTIONKIT_TEST_KILL="DIR,NAME,TIMES"): the first TIMES attempts of task NAME
-    end their worker process at once, as a crash would; DIR counts the attempts."""
-    setting = os.environ.get(KILL_HOOK)
-    if not setting:
-        return
-    folder, target, times = setting.split(",")
-    if target != name:
-        return
-    marks = Path(folder)
-    attempt = len(list(marks.glob(f"{name}.*"))) + 1
-    if attempt <= int(times):
-        (marks / f"{name}.{attempt}").touch()
-        os._exit(70)

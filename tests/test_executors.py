@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import json
 import operator
+import os
 import sys
 from pathlib import Path
 
@@ -26,6 +27,8 @@ from motionkit.outputs import (
     write_files,
 )
 
+FAULTS = Path(__file__).resolve().parent / "faults"  # sitecustomize.py: kills tasks on request
+
 
 def run(executor, items: list[int], names: list[str]) -> dict[int, object]:
     return {d.index: d.value if d.value is not None else d.lost
@@ -38,6 +41,10 @@ def test_in_process_and_processes_give_every_result() -> None:
 
 
 def test_a_dead_local_worker_loses_only_its_task(tmp_path: Path, monkeypatch) -> None:
+    """The workers start with tests/faults on their path, whose start-up hook kills tasks."""
+    monkeypatch.setenv(
+        "PYTHONPATH", os.pathsep.join([str(FAULTS), os.environ.get("PYTHONPATH", "")])
+    )
     monkeypatch.setenv("MOTIONKIT_TEST_KILL", f"{tmp_path},b,1")
     assert run(Processes(2), [1, 2, 3], ["a", "b", "c"]) == {0: 101, 1: 102, 2: 103}
     assert [p.name for p in tmp_path.iterdir()] == ["b.1"]

@@ -57,7 +57,10 @@ def ray_cluster(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Cluster]:
     gcs, client, *agents = _free_ports(7)
     cache = tmp_path_factory.mktemp("worker-cache")
     env = os.environ | {
-        "PYTHONPATH": os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")])),
+        # tests/faults: its start-up hook lets MOTIONKIT_TEST_KILL end a worker mid-task
+        "PYTHONPATH": os.pathsep.join(
+            filter(None, [str(REPO), str(REPO / "tests" / "faults"), os.environ.get("PYTHONPATH")])
+        ),
         "RAY_USAGE_STATS_ENABLED": "0",
         "MOTIONKIT_CACHE": str(cache),
         "CC": "false",
