@@ -8,7 +8,9 @@ import numpy as np
 
 from motionkit.dataset import MotionDataset
 from motionkit.dataset.amp import resample
+from motionkit.dataset.collection import find_clips
 from motionkit.dataset.trajectory import Trajectory
+from motionkit.dataset.validate import read_valid
 from motionkit.errors import DatasetError, TrainError
 from motionkit.robot import Robot
 from motionkit.robot.geometry import quat_rotate_inverse, to_rotation
@@ -21,13 +23,17 @@ from motionkit.train.env.task import AIRBORNE_CLEARANCE
 def load_priors(
     priors: dict[str, PriorConfig], robot: Robot, rate: float
 ) -> tuple[PriorData | None, dict[str, dict[str, float]]]:
-    """The combined dataset transitions (None without priors) and a summary per prior."""
+    """The combined dataset transitions (None without priors) and a summary per prior. Every
+    clip is checked first as `dataset validate` checks it (another model of the robot with the
+    same names passes): a TrainError names the prior, the file and what is wrong."""
     if not priors:
         return None, {}
     currents, followings, probabilities, states, summary = [], [], [], [], {}
     total_weight = sum(p.weight for p in priors.values())
     for name, prior in priors.items():
         try:
+            for path in find_clips(list(prior.paths)):  # as `dataset validate` checks them
+                read_valid(path, robot, other_model=True)
             dataset = MotionDataset(list(prior.paths))
             pairs = dataset.amp_pairs(robot, rate)
             frames = [prior_states(t, robot, rate) for _, t in dataset.trajectories()]
