@@ -188,7 +188,9 @@ class TrajoptConfig:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], source: str = "<config>") -> TrajoptConfig:
-        return load(cls, data, source, TrajoptError)
+        config = load(cls, data, source, TrajoptError)
+        check_ipopt_options(config.solver.options, source)
+        return config
 
     def with_scenario(self, **changes: Any) -> TrajoptConfig:
         """The same config with some scenario fields replaced (CLI overrides)."""
@@ -202,3 +204,33 @@ class TrajoptConfig:
     def kind(self) -> str:
         default = {"walk_to_fly": "takeoff", "flight_to_waypoint": "flight", "jet_jump": "jump"}
         return self.scenario.kind or default.get(self.scenario.name, self.scenario.name)
+
+
+def check_ipopt_options(options: dict[str, Any], source: str) -> None:
+    """A TrajoptError naming `source` and the first of the verbatim IPOPT options that IPOPT
+    refuses (an unknown name, a value of the wrong type or an invalid setting), found by
+    building a one-variable solver with each (milliseconds). Without CasADi: not checked here
+    (a solve names the missing extra)."""
+    if not options:
+        return
+    try:
+        import casadi as cs
+    except ImportError:
+        return
+    from motionkit.silence import quiet_c_output
+
+    x = cs.SX.sym("x")
+    for name, value in options.items():
+        try:
+            with quiet_c_output():  # IPOPT prints the option's documentation
+                cs.nlpsol("probe", "ipopt", {"x": x, "f": x**2}, {"ipopt": {name: value}})
+        except RuntimeError as exc:
+            text = str(exc)
+            reason = (
+                "IPOPT has no such option"
+                if "No such IPOPT option" in text
+                else "a value of the wrong type for IPOPT"
+                if "type mismatch" in text
+                else "not a setting IPOPT accepts"
+            )
+            raise TrajoptError(f"{source}: [solver.options] {name} = {value!r}: {reason}") from None
