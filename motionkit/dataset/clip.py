@@ -404,7 +404,12 @@ def _read(
     high = None if end is None else _ns(end) + 1
     parts: dict[str, list[np.ndarray]] = {name: [] for name in ARRAY_FIELDS}
     for log_time, payload in _messages(index, path, low, high):
-        arrays = decode_chunk(payload)
+        try:
+            arrays = decode_chunk(payload)
+        except DatasetError as exc:  # the decoder knows the bytes, not the file
+            raise DatasetError(
+                f"{path}: /motion message at {log_time / _NS:.3f} s: {exc}"
+            ) from None
         count = len(arrays.get("time", ()))
         for name in ARRAY_FIELDS:
             values = arrays.get(name)

@@ -67,6 +67,19 @@ def _no_messages(path: Path, robot: Robot, walk: Trajectory) -> Path:
     return path
 
 
+def _garbage_payload(path: Path, robot: Robot, walk: Trajectory) -> Path:
+    """A well-formed MCAP (CRCs valid) whose one /motion message is not a MotionChunk."""
+    with open(path, "wb") as stream:
+        writer = Writer(stream)
+        writer.start()
+        schema = writer.register_schema(MOTION_SCHEMA, "protobuf", motion_schema())
+        channel = writer.register_channel("/motion", "protobuf", schema)
+        writer.add_metadata("motionkit", clip_module._metadata_record(walk))
+        writer.add_message(channel, log_time=0, data=b"\x0a\xff", publish_time=0)
+        writer.finish()
+    return path
+
+
 def _truncated(path: Path, robot: Robot, walk: Trajectory) -> Path:
     path.write_bytes(write(path, walk, robot).read_bytes()[:-100])
     return path
@@ -105,6 +118,10 @@ METADATA: dict[str, tuple[Maker, str]] = {
 DATA: dict[str, tuple[Maker, str]] = {
     "flipped byte": (_flipped, r"CRC mismatch in the data section; the file is corrupt"),
     "no messages": (_no_messages, r"no /motion frames$"),
+    "garbage payload": (
+        _garbage_payload,
+        r"/motion message at 0.000 s: truncated or invalid varint in a MotionChunk message",
+    ),
     "NaN joint angle": (
         lambda p, r, w: _edited(p, r, w, "joint_positions", np.s_[5, 2], np.nan),
         r"finite values: joint_positions is not finite at frame 5",
