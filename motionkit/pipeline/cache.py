@@ -50,10 +50,9 @@ def run_cached(
     output and its record as they were. An OUTPUT holding files motionkit did not write there
     is refused before the work."""
     record_path = records / f"{stage}.json"
-    if not force and output.exists() and record_path.exists():
-        record = json.loads(record_path.read_text())
-        if record.get("key") == key:
-            return Outcome(stage, "cached", record["seconds"], record["made"], str(output), key)
+    record = None if force or not output.exists() else _record(record_path)
+    if record is not None and record["key"] == key:
+        return Outcome(stage, "cached", record["seconds"], record["made"], str(output), key)
     foreign = foreign_entries(output)
     if foreign:
         raise PipelineError(
@@ -75,6 +74,21 @@ def run_cached(
     outcome = Outcome(stage, "ran", round(time.perf_counter() - start, 1), made, str(output), key)
     write_text_atomic(record_path, json.dumps(outcome.to_dict(), indent=2) + "\n")
     return outcome
+
+
+def _record(path: Path) -> dict[str, Any] | None:
+    """A stage's record, or None where there is none or it is unreadable or damaged (then the
+    stage runs again, as for a new key)."""
+    try:
+        record = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, ValueError):
+        return None
+    fields = {"key": str, "seconds": (int, float), "made": str}
+    if not isinstance(record, dict):
+        return None
+    if not all(isinstance(record.get(k), kind) for k, kind in fields.items()):
+        return None
+    return record
 
 
 def _swap(staging: Path, output: Path) -> None:
