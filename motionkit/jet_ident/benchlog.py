@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from motionkit.errors import JetIdentError
+from motionkit.inputs import read_text
 from motionkit.outputs import write_text_atomic
 
 COLUMNS = ("time_s", "throttle_pct", "thrust_n")
@@ -67,13 +68,7 @@ class BenchLog:
 
 def read_log(path: Path) -> BenchLog:
     """The checked log in `path`, or JetIdentError naming the file, the line and the problem."""
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise JetIdentError(f"{path}: cannot read bench log ({exc.strerror})") from exc
-    except UnicodeDecodeError as exc:
-        raise JetIdentError(f"{path}: not a UTF-8 text file") from exc
+    text = read_text(path, JetIdentError, "bench log")  # a regular file, UTF-8, never waited on
     return parse_log(text, str(path))
 
 

@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import io
 import json
+import zipfile
+import zlib
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -31,6 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from motionkit.errors import JetIdentError
+from motionkit.inputs import read_bytes
 from motionkit.jet_ident.baselines import FirstOrderLag, GreyBox
 from motionkit.jet_ident.model import FIRST_ORDER, SECOND_ORDER, Normalisation
 from motionkit.jet_ident.step import GreyBoxThrust, LSTMThrust
@@ -65,13 +68,12 @@ def save_model(path: Path, params: LSTMThrust, metadata: dict[str, Any] | None =
 
 def load_model(path: Path) -> tuple[LSTMThrust, dict[str, Any]]:
     """The model and metadata in `path`, or JetIdentError saying what is wrong."""
+    data = read_bytes(path, JetIdentError, "the thrust model")  # a regular file, never waited on
     try:
-        with np.load(Path(path), allow_pickle=False) as archive:
+        with np.load(io.BytesIO(data), allow_pickle=False) as archive:
             contents = {name: archive[name] for name in archive.files}
-    except OSError as exc:
-        raise JetIdentError(f"{path}: cannot read the thrust model ({exc})") from exc
-    except ValueError as exc:
-        raise JetIdentError(f"{path}: not a motionkit thrust model (.npz) ({exc})") from exc
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+        raise JetIdentError(f"{path}: not a motionkit thrust model (.npz) ({exc})") from None
     missing = [name for name in (*ARRAYS, "metadata") if name not in contents]
     if missing:
         raise JetIdentError(f"{path}: not a motionkit thrust model; missing {', '.join(missing)}")
