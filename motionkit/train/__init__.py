@@ -9,6 +9,7 @@ spec.
     summary = train_policy(config, out, robot)           # OUT/summary.json, rollouts/, ...
     figures = run_ablation(config, out, robot)           # the four prior settings
     export_policy(out, "policy", robot)                  # the small policy package
+    draw_curves(out)                                     # OUT/curves.png
     played, route = play_policy(load_policy("policy"), robot, Path("play.mcap"))
 
 `train_policy` is `motionkit.train.runner.train` (a run in a folder, resumable; the config's
