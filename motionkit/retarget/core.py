@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import hashlib
 import time as clock
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -18,7 +20,7 @@ from motionkit.retarget.balance import Pass, balance
 from motionkit.retarget.config import RetargetConfig
 from motionkit.retarget.ik import solve_motion
 from motionkit.retarget.metrics import compute_metrics
-from motionkit.retarget.points import robot_points
+from motionkit.retarget.points import Point, robot_points
 from motionkit.retarget.targets import RobotGeometry, Targets, make_targets, slowed
 from motionkit.robot import Robot
 from motionkit.robot.geometry import Array, angular_velocity, from_rotation
@@ -39,6 +41,22 @@ class Timings:
     metrics: float
 
 
+@dataclass
+class _Runs:
+    """What the IK runs of one clip share: the IK's inputs, the progress callback (it counts
+    frames over all the runs), the runs so far, and the physics of each motion checked (by
+    content: the balance filter checks its first and best motions again)."""
+
+    robot: Robot
+    points: dict[str, Point]
+    config: RetargetConfig
+    source: Source
+    targets: Targets  # as planned: the clip's landmarks and contacts
+    progress: Callable[[int], None] | None
+    solves: int = 0
+    reports: dict[bytes, PhysicsReport] = field(default_factory=dict)
+
+
 def retarget(
     landmarks: dict[str, Array],
     rate: float,
@@ -48,12 +66,26 @@ def retarget(
     progress: Callable[[int], None] | None = None,
     span: tuple[float, float] | None = None,
 ) -> tuple[Trajectory, Timings]:
-    """The robot motion that follows human landmarks (world positions [m], Z up, at `rate` Hz),
-    made balanceable by the dynamic filter (`config.balance`: the base moves so that the
-    centre of pressure stays in the support), with its quality and physics figures (and what
-    the filter changed) in the metadata, and the human (low-passed, scaled to the robot:
-    what it was retargeted to) as the clip's landmarks; landmarks outside
-    motionkit.mocap.LANDMARKS are not written. `span`: only [start, end] s of the human motion."""
+    """The robot motion that follows a human's, made balanceable by the dynamic filter
+    (`config.balance`: the base moves so that the centre of pressure stays in the support).
+
+    Args:
+        landmarks: the human's landmark positions, (T, 3) each [m], world frame, Z up;
+            landmarks outside motionkit.mocap.LANDMARKS are not written into the clip.
+        rate: frames per second of the landmarks [Hz].
+        robot: the robot to retarget onto.
+        config: the retargeting config.
+        source: where the motion came from (the clip's metadata).
+        progress: called with each frame's index once the IK solved it, counted on over the
+            balance filter's passes (frame t of pass n: n T' + t).
+        span: only [start, end] [s] of the human motion (both frames kept).
+
+    Returns:
+        The clip (T' frames, T' = T or the span's): base poses, joint positions [rad], the
+        human low-passed and scaled to the robot (what it was retargeted to) as its landmarks,
+        and its quality and physics figures (and what the filter changed) in the metadata;
+        and the seconds spent per stage.
+    """
     start = clock.perf_counter()
     if span is not None:
         landmarks = trimmed(landmarks, rate, span)
@@ -64,31 +96,14 @@ def retarget(
     if config.slowdown != 1.0:
         targets = slowed(targets, config.slowdown)
     planned = clock.perf_counter()
-    motion = _Motion(robot, config, source or Source())
-
-    solves = [0]  # IK solves so far: the progress counts frames over all of them
-
-    def solve(goals: Targets) -> tuple[Array, Array]:
-        offset = solves[0] * len(goals.time)
-        solves[0] += 1
-        step = None if progress is None else (lambda t: progress(offset + t))
-        return solve_motion(robot, goals, points, config, step)
-
-    checked: list[tuple[Array, PhysicsReport]] = []  # each motion's check, by its joints
-
-    def check(base: Array, joints: Array) -> PhysicsReport:
-        for done, report in checked:
-            if done is joints:
-                return report
-        checked.append((joints, check_physics(motion.trajectory(targets, base, joints), robot)))
-        return checked[-1][1]
-
-    base, joints = solve(targets)
+    runs = _Runs(robot, points, config, source or Source(), targets, progress)
+    base, joints = _solve(runs, targets)
     metrics: dict[str, Any] = {}
     goals = targets
     if config.balance.passes:
         before = compute_metrics(robot, targets, points, base, joints)
-        physics_before = check(base, joints).summary()
+        physics_before = _check(runs, base, joints).summary()
+        solve, check = partial(_solve, runs), partial(_check, runs)
         goals, base, joints, passes = balance(
             targets, solve, check, config.balance, first=(base, joints)
         )
@@ -103,10 +118,27 @@ def retarget(
     metrics["slowdown"] = config.slowdown
     if span is not None:
         metrics["source_span_s"] = list(span)
-    metrics["physics"] = check(base, joints).summary()
+    metrics["physics"] = _check(runs, base, joints).summary()
     measured = clock.perf_counter()
-    trajectory = motion.trajectory(targets, base, joints, metrics)
+    trajectory = _trajectory(runs, base, joints, metrics)
     return trajectory, Timings(planned - start, solved - planned, measured - solved)
+
+
+def _solve(runs: _Runs, goals: Targets) -> tuple[Array, Array]:
+    """The IK on `goals`: base poses (T, 4, 4) and joint positions (T, J) [rad]."""
+    offset = runs.solves * len(goals.time)
+    runs.solves += 1
+    progress = runs.progress
+    step = None if progress is None else (lambda t: progress(offset + t))
+    return solve_motion(runs.robot, goals, runs.points, runs.config, step)
+
+
+def _check(runs: _Runs, base: Array, joints: Array) -> PhysicsReport:
+    """The physics of the motion (base poses (T, 4, 4), joints (T, J)), checked once."""
+    key = hashlib.sha256(base.tobytes() + joints.tobytes()).digest()
+    if key not in runs.reports:
+        runs.reports[key] = check_physics(_trajectory(runs, base, joints), runs.robot)
+    return runs.reports[key]
 
 
 def span_frames(rate: float, span: tuple[float, float]) -> tuple[int, int]:
@@ -147,44 +179,39 @@ def _changes(before: dict[str, Any], physics: dict[str, Any], passes: list[Pass]
     }
 
 
-class _Motion:
-    """Builds the clip of a solved motion."""
-
-    def __init__(self, robot: Robot, config: RetargetConfig, source: Source) -> None:
-        self.robot, self.config, self.source = robot, config, source
-
-    def trajectory(
-        self, targets: Targets, base: Array, joints: Array, metrics: dict[str, Any] | None = None
-    ) -> Trajectory:
-        robot, time = self.robot, targets.time
-        quats = from_rotation(Rotation.from_matrix(base[:, :3, :3]))
-        names, parents = skeleton(list(targets.human))
-        return Trajectory(
-            time=time,
-            base_position=base[:, :3, 3],
-            base_orientation=quats,
-            joint_names=robot.joint_names,
-            joint_positions=joints,
-            joint_velocities=np.gradient(joints, time, axis=0),
-            base_linear_velocity=np.gradient(base[:, :3, 3], time, axis=0),
-            base_angular_velocity=angular_velocity(time, quats),
-            thrust=np.zeros((len(time), len(robot.spec.jets))),
-            contacts=targets.contacts,
-            jet_names=tuple(jet.name for jet in robot.spec.jets),
-            foot_names=tuple(foot.side for foot in robot.spec.feet),
-            landmark_names=names,
-            landmark_parents=parents,
-            landmarks=np.stack([targets.human[name] for name in names], axis=1),
-            metadata=Metadata(
-                robot=robot.name,
-                robot_hash=robot.model_hash,
-                kind=self.config.kind,
-                generator="retarget",
-                source=self.source,
-                config=_plain(self.config.to_dict()),
-                metrics=metrics or {},
-            ),
-        )
+def _trajectory(
+    runs: _Runs, base: Array, joints: Array, metrics: dict[str, Any] | None = None
+) -> Trajectory:
+    """The clip of a solved motion: base poses (T, 4, 4), joint positions (T, J) [rad]."""
+    robot, targets, time = runs.robot, runs.targets, runs.targets.time
+    quats = from_rotation(Rotation.from_matrix(base[:, :3, :3]))
+    names, parents = skeleton(list(targets.human))
+    return Trajectory(
+        time=time,
+        base_position=base[:, :3, 3],
+        base_orientation=quats,
+        joint_names=robot.joint_names,
+        joint_positions=joints,
+        joint_velocities=np.gradient(joints, time, axis=0),
+        base_linear_velocity=np.gradient(base[:, :3, 3], time, axis=0),
+        base_angular_velocity=angular_velocity(time, quats),
+        thrust=np.zeros((len(time), len(robot.spec.jets))),
+        contacts=targets.contacts,
+        jet_names=tuple(jet.name for jet in robot.spec.jets),
+        foot_names=tuple(foot.side for foot in robot.spec.feet),
+        landmark_names=names,
+        landmark_parents=parents,
+        landmarks=np.stack([targets.human[name] for name in names], axis=1),
+        metadata=Metadata(
+            robot=robot.name,
+            robot_hash=robot.model_hash,
+            kind=runs.config.kind,
+            generator="retarget",
+            source=runs.source,
+            config=_plain(runs.config.to_dict()),
+            metrics=metrics or {},
+        ),
+    )
 
 
 def _plain(value: object) -> object:

@@ -246,7 +246,7 @@ def test_lock_offsets_share_a_short_gap() -> None:
 
 
 def test_contact_foot_weights_blend() -> None:
-    from motionkit.retarget.ik import foot_weights
+    from motionkit.retarget.tasks import foot_weights
 
     weights = Weights()
     assert foot_weights(weights, 0.0) == (1000.0, 100.0)
