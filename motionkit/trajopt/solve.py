@@ -18,6 +18,7 @@ import casadi as cs
 import numpy as np
 
 from motionkit.errors import TrajoptError
+from motionkit.interrupts import interruptible
 from motionkit.robot import Robot
 from motionkit.trajopt.config import TrajoptConfig
 from motionkit.trajopt.dynamics import ProblemFunctions
@@ -160,7 +161,8 @@ class Prepared:
         for i, eps in enumerate(self.config.contacts.eps):
             solver = self.cold if i == 0 or not self.config.solver.warm_start else self.warm
             start = clock.perf_counter()
-            result = solver(**args, p=self.problem.functions.parameters(eps))
+            with interruptible():  # Ctrl-C and SIGTERM stop IPOPT and end the program
+                result = solver(**args, p=self.problem.functions.parameters(eps))
             stats = solver.stats()
             steps.append(
                 Step(

@@ -135,3 +135,35 @@ def test_interrupted_pipeline_stage_keeps_the_previous_output(tmp_path: Path) ->
     assert survivors(process.pid) == []
     assert snapshot(out) == before  # the staging folder is gone, the previous walk/ untouched
     assert [clip.name for clip in check_clips(out / "walk")] == ["walk.mcap"]
+
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
+def test_trajopt_ends_during_an_ipopt_solve(signum: int, tmp_path: Path) -> None:
+    """CasADi turns the interrupt its signal handler raises inside IPOPT into a warning: the
+    command still ends within seconds with 143 / 130, one line and no output."""
+    pytest.importorskip("casadi")
+    out = tmp_path / "flight"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "motionkit.cli", "trajopt", "--scenario", "takeoff", "--out",
+         str(out)],
+        cwd=tmp_path,
+        env=environment() | {"MOTIONKIT_TRAJOPT_COMPILE": "-O0"},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+        preexec_fn=_ctrl_c_as_in_a_terminal,
+    )  # fmt: skip
+    for line in process.stdout:  # IPOPT's iteration table: the solve is under way
+        if line.startswith("iter "):
+            break
+    else:
+        pytest.fail(f"no IPOPT iterations: {process.stderr.read()}")
+    sent = time.monotonic()
+    code, err = interrupt(process, signum)
+    assert time.monotonic() - sent < 10.0
+    assert code == 128 + signum, err
+    assert err.strip().splitlines()[-1] == (
+        "motionkit: terminated" if signum == signal.SIGTERM else "motionkit: interrupted"
+    )
+    assert "Traceback" not in err and not out.exists()
