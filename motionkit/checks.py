@@ -18,6 +18,7 @@ NUMBERS: dict[str, Callable[[float], bool]] = {
     "in [0, 1]": lambda v: 0 <= v <= 1,
     "in (0, 1]": lambda v: 0 < v <= 1,
     "in (0, 1)": lambda v: 0 < v < 1,
+    "in (0, 180]": lambda v: 0 < v <= 180,  # degrees
 }
 # Rules on a whole field (a tuple): the test and what the message says.
 WHOLE: dict[str, tuple[Callable[[Any], bool], str]] = {

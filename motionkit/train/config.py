@@ -46,6 +46,9 @@ class EnvConfig:
     min_base_height: float = 0.4  # m above the terrain; lower ends the episode (a fall)
     waypoint_distance: tuple[float, float] = (0.7, 2.0)  # m between consecutive waypoints
     waypoint_radius: float = 0.3  # m: a waypoint closer than this is reached
+    # deg: a new waypoint lies within this angle of the robot's facing (180: any direction);
+    # a prior of straight walks has no turn in place to imitate for a waypoint behind
+    waypoint_angle: float = 180.0
     # a waypoint not reached within factor * distance / v_desired + extra seconds is replaced
     waypoint_timeout: bool = True
     timeout_factor: float = 1.5
@@ -82,6 +85,7 @@ class EnvConfig:
             )
         check(self, TrainError, "> 0", "control_hz", "episode_seconds", "action_scale")
         check(self, TrainError, "> 0", "thrust_rate_max", "waypoint_radius", "ground_height")
+        check(self, TrainError, "in (0, 180]", "waypoint_angle")
         check(self, TrainError, "> 0", "terrain_size")
         check(self, TrainError, ">= 1", "substeps", "solver_iterations", "ls_iterations")
         check(self, TrainError, ">= 0", "timeout_factor", "timeout_extra", "air_curriculum")

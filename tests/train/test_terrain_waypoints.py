@@ -7,6 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from motionkit.errors import TrainError
 from motionkit.train.config import EnvConfig
 from motionkit.train.env import terrain, waypoints
 
@@ -103,3 +104,26 @@ def test_air_waypoint_curriculum_against_hand_values() -> None:
     start = jnp.array([0.0, 0.0, 0.6])
     sample = jax.vmap(lambda k: waypoints.next_waypoint(k, start, ramp, terrain.flat(), 1e6, 0.0))
     assert np.all(np.asarray(sample(keys))[:, 2] == pytest.approx(0.6))  # share 0: ground only
+
+
+def test_waypoints_within_the_angle_of_the_facing() -> None:
+    """waypoint_angle 45: every direction within 45 degrees of the heading (here 120 deg), and
+    both edges of the cone reached; 180 keeps any direction."""
+    cone = dataclasses.replace(EnvConfig(), air_probability=0.0, waypoint_angle=45.0)
+    start = jnp.array([0.0, 0.0, cone.ground_height])
+    keys = jax.random.split(jax.random.key(2), 2000)
+    heading = np.deg2rad(120.0)
+    points = np.asarray(
+        jax.vmap(
+            lambda k: waypoints.next_waypoint(k, start, cone, terrain.flat(), 1e6, 0.0, heading)
+        )(keys)
+    )
+    off = np.rad2deg(np.arctan2(points[:, 1], points[:, 0])) - 120.0
+    assert np.abs(off).max() <= 45.0 + 1e-3 and np.abs(off).max() > 44.0
+    anywhere = jax.vmap(
+        lambda k: waypoints.next_waypoint(k, start, EnvConfig(), terrain.flat(), 1e6, 0.0, heading)
+    )(keys)
+    directions = np.rad2deg(np.arctan2(anywhere[:, 1], anywhere[:, 0]))
+    assert directions.min() < -170.0 and directions.max() > 170.0
+    with pytest.raises(TrainError, match="waypoint_angle"):
+        EnvConfig(waypoint_angle=0.0)

@@ -339,6 +339,7 @@ class Env:
             self.terrain,
             self.route_bound,
             jnp.where(airborne, 1.0, air_share),
+            facing_angle(quat_to_matrix(qpos[3:7]), self.forward),
         )
         return ResetPose(qpos, qvel, thrust, origin, target, air_share, prior_share, k_next)
 
@@ -417,6 +418,7 @@ class Env:
             self.terrain,
             self.route_bound,
             state.air_share,
+            jnp.arctan2(facing[1], facing[0]),
         )
         target = jnp.where(new, new_target, state.target)
         deadline = jnp.where(new, self._deadline(base, new_target), state.deadline)

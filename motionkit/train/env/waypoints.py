@@ -25,9 +25,11 @@ def next_waypoint(
     terrain: Terrain,
     bound: float,
     air_share: jax.Array | float,
+    heading: jax.Array | float = 0.0,
 ) -> jax.Array:
     """A waypoint (3,) following `previous`; in the air with probability `air_share`; x and y
-    are kept within +-bound."""
+    are kept within +-bound. Its direction lies within +-config.waypoint_angle degrees of
+    `heading` (the robot's yaw [rad]); at 180, any direction."""
     k_air, k_lift, k_dist, k_angle = jax.random.split(key, 4)
     air = jax.random.uniform(k_air) < air_share
     low, high = config.air_height
@@ -37,7 +39,11 @@ def next_waypoint(
     )
     climb = lift - lift_of(terrain, previous)
     horizontal = jnp.sqrt(jnp.maximum(distance**2 - climb**2, 0.0))
-    angle = jax.random.uniform(k_angle, minval=-jnp.pi, maxval=jnp.pi)
+    if config.waypoint_angle >= 180.0:
+        angle = jax.random.uniform(k_angle, minval=-jnp.pi, maxval=jnp.pi)
+    else:
+        cone = jnp.deg2rad(config.waypoint_angle)
+        angle = heading + jax.random.uniform(k_angle, minval=-cone, maxval=cone)
     xy = previous[:2] + horizontal * jnp.array([jnp.cos(angle), jnp.sin(angle)])
     xy = jnp.clip(xy, -bound, bound)
     return jnp.array([xy[0], xy[1], height_at(terrain, xy) + lift])
