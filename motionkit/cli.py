@@ -13,8 +13,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from motionkit import __version__
-from motionkit.errors import MotionkitError
-from motionkit.outputs import write_text_atomic
+from motionkit.errors import MotionkitError, RobotModelError
+from motionkit.outputs import check_writable, write_text_atomic
 from motionkit.recipes import STAGES as STAGE_CHOICES
 
 ROBOT_EPILOG = """\
@@ -63,6 +63,7 @@ def _robot_info(args: argparse.Namespace) -> None:
 def _robot_export(args: argparse.Namespace) -> None:
     from motionkit.robot import load_robot
 
+    check_writable(args.out, RobotModelError)
     robot = load_robot(args.urdf, args.spec)  # validated before anything is written
     text = robot.urdf_text if args.format == "urdf" else robot.mjcf_text
     out = Path(args.out)

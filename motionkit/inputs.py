@@ -31,13 +31,12 @@ def open_input(path: Path | str, error: type[MotionkitError], what: str) -> Bina
         fd = os.open(path, flags)
     except OSError as exc:
         raise error(f"{path}: cannot read {what} ({exc.strerror})") from None
-    handle = os.fdopen(fd, "rb")
     mode = os.fstat(fd).st_mode
     if not stat.S_ISREG(mode):
-        handle.close()
+        os.close(fd)
         kind = next((name for test, name in _KINDS if test(mode)), "not a plain file")
         raise error(f"{path}: cannot read {what}: {kind}, not a regular file")
-    return handle
+    return os.fdopen(fd, "rb")
 
 
 def read_bytes(path: Path | str, error: type[MotionkitError], what: str) -> bytes:

@@ -105,13 +105,7 @@ def check_out(folder: Path, names: Iterable[str], error: type[MotionkitError]) -
     names = list(names)
     for name in names:
         inside(folder, name, error)
-    existing = next(p for p in (folder, *folder.absolute().parents) if p.exists())
-    if not existing.is_dir():
-        raise error(f"{existing}: is a file, not a folder; give --out a folder")
-    try:
-        tempfile.TemporaryFile(dir=existing).close()
-    except OSError as exc:
-        raise error(f"{folder}: cannot write there ({exc.strerror or exc})") from exc
+    check_writable(folder, error)
     foreign = foreign_entries(folder, names)
     if foreign:
         raise error(
@@ -119,6 +113,18 @@ def check_out(folder: Path, names: Iterable[str], error: type[MotionkitError]) -
             "replaced: move them or choose another --out"
         )
     return folder
+
+
+def check_writable(folder: Path, error: type[MotionkitError]) -> None:
+    """Refuse an output folder that is a file (or lies under one) or cannot be written."""
+    folder = Path(folder)
+    existing = next(p for p in (folder, *folder.absolute().parents) if p.exists())
+    if not existing.is_dir():
+        raise error(f"{existing}: is a file, not a folder; give --out a folder")
+    try:
+        tempfile.TemporaryFile(dir=existing).close()
+    except OSError as exc:
+        raise error(f"{folder}: cannot write there ({exc.strerror or exc})") from exc
 
 
 def claim_out(folder: Path, names: Iterable[str], error: type[MotionkitError]) -> Path:

@@ -14,6 +14,7 @@ from motionkit.dataset.export import FORMATS, export
 from motionkit.dataset.physics import PhysicsConfig, check_physics
 from motionkit.dataset.validate import Check, read_sound, read_valid, validate_clip
 from motionkit.errors import DatasetError
+from motionkit.outputs import check_writable
 
 PHYSICS_HELP = (
     "a TOML file of physics-check settings and thresholds (keys of "
@@ -240,6 +241,7 @@ def _cell(value: object) -> str:
 
 
 def _export(args: argparse.Namespace) -> int:
+    check_writable(args.out, DatasetError)
     paths = find_clips(args.paths)
     stems = [p.stem for p in paths]
     duplicates = sorted({s for s in stems if stems.count(s) > 1})
