@@ -15,7 +15,8 @@ unit (`thrust_kN`, `time [ms]`) is refused, naming it.
 Errors name the file and the line (1-based, counting comments and the header). Thrust in the
 wrong unit is caught by range: a value above MAX_THRUST_N is taken for grams (a P250 gives about
 23,000 g), and a log whose thrust never exceeds KILONEWTON_CEILING while the throttle passes
-50 % is taken for kN.
+KILONEWTON_THROTTLE is taken for kN (any engine's: even the smallest turbojets idle above 1 N,
+and none gives 1,000 N).
 """
 
 from __future__ import annotations
@@ -39,7 +40,8 @@ UNITS = {"time": ("s", "sec", "second", "seconds"), "throttle": ("pct", "%", "pe
          "thrust": ("n", "newton", "newtons")}  # fmt: skip
 MAX_THRUST_N = 1000.0  # small turbojets give at most a few hundred newtons
 MIN_THRUST_N = -50.0  # load-cell offset and ringing may dip below zero, not this far
-KILONEWTON_CEILING = 5.0  # N; a running jet past 50 % throttle gives far more than this
+KILONEWTON_CEILING = 1.0  # N; a running jet past KILONEWTON_THROTTLE gives more than this
+KILONEWTON_THROTTLE = 10.0  # %
 MAX_JITTER = 0.25  # a sample interval may differ from the median by this fraction
 
 
@@ -165,7 +167,7 @@ def check_log(log: BenchLog, source: str, lines: np.ndarray | None = None) -> No
     if bad.size:
         fail(bad[0], f"thrust_n {log.thrust[bad[0]]:g} is below {MIN_THRUST_N:g} N")
     top = int(np.argmax(log.thrust))
-    if log.throttle.max() > 50 and log.thrust[top] < KILONEWTON_CEILING:
+    if log.throttle.max() > KILONEWTON_THROTTLE and log.thrust[top] < KILONEWTON_CEILING:
         fail(
             top,
             f"thrust_n peaks at {log.thrust[top]:g} while the throttle reaches "

@@ -15,6 +15,7 @@ its own output. Errors are simulated minus measured thrust over the free-run sam
 from __future__ import annotations
 
 import itertools
+import math
 import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
@@ -146,6 +147,8 @@ def evaluate(
             )
         for name, model in models.items():
             runs[name].append(model.free_run(log.thrust, log.throttle, warmup, log.dt))
+        first = next(iter(models))
+        check_thrust_scale(log, runs[first][-1], warmup, first)
     results = {}
     for name in models:
         parts = [
@@ -154,6 +157,24 @@ def evaluate(
         ]
         results[name] = _pool(parts)
     return results, runs
+
+
+SCALE_TOLERANCE = 3.0  # a log's mean thrust within 1/3-3x of the model's: the same unit
+
+
+def check_thrust_scale(log: BenchLog, simulated: np.ndarray, warmup: int, model: str) -> None:
+    """A JetIdentError when the log's thrust is on another scale than the model's free run on
+    its throttle (`simulated`: samples warmup..n-1): a column in kN or grams, or a log of
+    another engine, whose errors would say nothing about the model."""
+    measured = float(np.mean(log.thrust[warmup:]))
+    predicted = float(np.mean(simulated))
+    ratio = measured / predicted if predicted > 0 else math.inf
+    if not 1 / SCALE_TOLERANCE <= ratio <= SCALE_TOLERANCE:
+        raise JetIdentError(
+            f"{log.name}: thrust_n averages {measured:.4g} N where the {model} model gives "
+            f"{predicted:.4g} N for the same throttle ({ratio:.3g}x): is the column in another "
+            "unit (kN, grams) or the log of another engine? expected newtons"
+        )
 
 
 def _pool(parts: Sequence[Metrics]) -> Metrics:

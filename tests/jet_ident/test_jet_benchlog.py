@@ -123,6 +123,9 @@ def test_thrust_in_kilonewtons_is_caught_by_range() -> None:
     kn = GOOD.replace("15.2", "0.0152").replace("15.9", "0.0159").replace("18.5", "0.0185")
     message = _error(kn.replace("30.0", "0.030"))
     assert "line 7" in message and "kN" in message and "newtons" in message
+    # a log that never passes 50 % throttle (idle 0.015 kN where the engine idles near 15 N)
+    low = kn.replace("30.0", "0.021").replace("60.0", "30.0")
+    assert "kN" in _error(low) and "reaches 30 %" in _error(low)
 
 
 def test_short_row_and_missing_header() -> None:

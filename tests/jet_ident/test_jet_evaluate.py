@@ -82,3 +82,24 @@ def test_plot_writes_png_or_says_matplotlib_is_missing(tmp_path: Path) -> None:
         return
     plot(tmp_path / "p.png", log, {"m": thrust[10:] + 1}, 10)
     assert (tmp_path / "p.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+class _Steady:
+    """A stand-in model: 15 N plus 2 N per throttle percent, after the warm-up."""
+
+    def free_run(self, thrust, throttle, warmup, dt):
+        return 15.0 + 2.0 * np.asarray(throttle)[warmup:]
+
+
+def test_a_log_on_another_thrust_scale_is_refused() -> None:
+    """A log in kN (or of another engine) against the model's free run: one clear error, not
+    an MAE that looks like a result; within 3x of the model's thrust the log is evaluated."""
+    time = np.arange(400) * 0.01
+    throttle = np.where(time < 2.0, 20.0, 60.0)
+    newtons = 15.0 + 2.0 * throttle + 0.5
+    log = BenchLog(time, throttle, newtons, name="bench.csv")
+    results, _ = evaluate({"LSTM": _Steady()}, [log], 50)
+    assert results["LSTM"].mae == pytest.approx(0.5, abs=1e-9)
+    kilonewtons = BenchLog(time, throttle, newtons / 1000, name="bench_kn.csv")
+    with pytest.raises(JetIdentError, match=r"bench_kn.csv: thrust_n averages 0\.1\d* N where"):
+        evaluate({"LSTM": _Steady()}, [kilonewtons], 50)
