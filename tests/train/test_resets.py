@@ -136,8 +136,9 @@ def test_lstm_jets_rest_at_the_start_thrust(tiny_config) -> None:
     np.testing.assert_allclose(np.asarray(middle[0][0]), 0.5 * np.asarray(c[k] + c[k + 1]),
                                atol=1e-5)  # fmt: skip
     assert len(grid) == TABLE_SIZE and jets.rest_action == -1.0
-    # the AMP thrust feature: 0 at and below idle, (T - idle) / T_max above
-    feature = jets.feature(jnp.array([0.0, jets.idle, jets.idle + 25.0, 250.0]))
+    # the AMP thrust feature: 0 up to 5 N (2 % of T_max) above idle, (T - idle - 5) / T_max
+    feature = jets.feature(jnp.array([jets.idle, jets.idle + 5.0, jets.idle + 25.0, 250.0]))
     np.testing.assert_allclose(
-        np.asarray(feature), [0.0, 0.0, 0.1, (250.0 - jets.idle) / 250.0], atol=1e-6
+        np.asarray(feature), [0.0, 0.0, 0.08, (245.0 - jets.idle) / 250.0], atol=1e-6
     )
+    assert float(jets.feature(jnp.zeros(4)).max()) == 0.0  # a jet that is off

@@ -165,7 +165,7 @@ def test_prior_samples_follow_the_probabilities() -> None:
 
 def test_simulator_features_equal_the_dataset_features(env, robot) -> None:
     """chi from an MJX state equals motionkit.dataset.amp_features of the same frames (the
-    thrust as a share of T_max above the ideal jet's idle, 0 N)."""
+    thrust as a share of T_max above the ideal jet's idle, 0 N, and the 2 % deadband)."""
     import mujoco
 
     from motionkit.dataset import amp_features
@@ -175,7 +175,8 @@ def test_simulator_features_equal_the_dataset_features(env, robot) -> None:
 
     clip = synthetic_trajectory(robot, 0.5, 10.0, thrust=80.0, turn_rate=0.7, seed=3)
     expected = amp_features(clip, robot)
-    expected[:, env.layout.slice("thrust")] /= 250.0  # the environment's: above 0 N idle, / T_max
+    thrust = expected[:, env.layout.slice("thrust")]  # above 0 N idle and a 5 N deadband
+    expected[:, env.layout.slice("thrust")] = np.maximum(thrust - 5.0, 0.0) / 250.0
     model = env.mj_model
     data = mujoco.MjData(model)
     for t in range(clip.frames):
