@@ -2,6 +2,8 @@
 package docstring, and the stages with an optional extra import without it."""
 
 import importlib
+import inspect
+import re
 import subprocess
 import sys
 
@@ -23,6 +25,14 @@ README_NAMES = {
 }
 # the front doors whose docstring documents every name they export
 DOCUMENTED = ("retarget", "trajopt", "train", "pipeline", "viewer")
+# the front doors whose functions have a summary line, Args: (each parameter) and Returns:
+DOCSTRING_STYLE = (
+    "motionkit.robot",
+    "motionkit.mocap",
+    "motionkit.dataset",
+    "motionkit.train",
+    "motionkit.viewer",
+)
 
 
 @pytest.mark.parametrize(("module", "names"), README_NAMES.items())
@@ -40,6 +50,43 @@ def test_front_door_exports_what_the_readme_uses(module: str, names: tuple[str, 
     if stage in DOCUMENTED:
         undocumented = [name for name in package.__all__ if name not in package.__doc__]
         assert not undocumented, f"{module}'s docstring does not name {undocumented}"
+
+
+def _section(doc: str, title: str) -> str | None:
+    """The lines of section `title:` of a docstring, up to the next section or the end."""
+    match = re.search(rf"^{title}:\n(.*?)(?=^\S|\Z)", doc, re.M | re.S)
+    return match.group(1) if match else None
+
+
+@pytest.mark.parametrize("module", DOCSTRING_STYLE)
+def test_front_door_functions_document_args_and_returns(module: str) -> None:
+    package = importlib.import_module(module)
+    problems = []
+    for name in package.__all__:
+        try:
+            value = getattr(package, name)
+        except MotionkitError:  # a lazy name whose extra is not installed here
+            continue
+        if isinstance(value, type) or not callable(value):
+            continue
+        doc = inspect.getdoc(value) or ""
+        lines = doc.splitlines()
+        if not lines or (len(lines) > 1 and lines[1].strip()):
+            problems.append(f"{name}: no one-line summary")
+        parameters = [
+            p.name
+            for p in inspect.signature(value).parameters.values()
+            if p.name != "self" and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)
+        ]
+        args = _section(doc, "Args")
+        if parameters and args is None:
+            problems.append(f"{name}: no Args section")
+        missing = [p for p in parameters if not re.search(rf"^ +{p}:", args or "", re.M)]
+        if args is not None and missing:
+            problems.append(f"{name}: Args does not name {missing}")
+        if _section(doc, "Returns") is None:
+            problems.append(f"{name}: no Returns section")
+    assert not problems, f"{module}: " + "; ".join(problems)
 
 
 def test_train_policy_is_the_run_and_not_the_module() -> None:

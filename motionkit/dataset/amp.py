@@ -84,7 +84,17 @@ class FeatureLayout:
 
 
 def feature_names(robot: Robot) -> list[str]:
-    """One name per column of chi, in order."""
+    """One name per column of chi, in order.
+
+    Each name is its block and column: "base_orientation.w", "joint_position.<joint>",
+    "<frame>.x" for an end effector, "thrust.<jet>" (see `FeatureLayout`).
+
+    Args:
+        robot: the robot whose joints, end effectors and jets make the columns.
+
+    Returns:
+        The D names, D = 10 + 2 J + 3 E + N for J joints, E end effectors and N jets.
+    """
     return list(FeatureLayout.of(robot).names)
 
 
@@ -99,7 +109,19 @@ def remove_heading(robot: Robot, quats: np.ndarray) -> np.ndarray:
 
 
 def amp_features(trajectory: Trajectory, robot: Robot, *, heading_free: bool = True) -> np.ndarray:
-    """chi for every frame of the trajectory: (T, len(feature_names(robot))) float32."""
+    """chi for every frame of the trajectory: (T, len(feature_names(robot))) float32.
+
+    Args:
+        trajectory: the clip, T frames of the robot's joints and jets.
+        robot: the robot of the clip; its spec names the end effectors and forward axis.
+        heading_free: remove the yaw of the robot's forward axis from the base orientation;
+            False keeps the world orientation.
+
+    Returns:
+        chi (T, D) float32: base orientation (w, x, y, z), base linear [m/s] and angular
+        [rad/s] velocity in the base frame, joint positions [rad] and velocities [rad/s],
+        end-effector positions relative to the base in the base frame [m], thrust [N].
+    """
     quats = trajectory.base_orientation.astype(float)
     orientation = remove_heading(robot, quats) if heading_free else quats
     linear = quat_rotate_inverse(quats, trajectory.base_linear_velocity.astype(float))
@@ -122,9 +144,22 @@ def amp_features(trajectory: Trajectory, robot: Robot, *, heading_free: bool = T
 
 
 def resample(trajectory: Trajectory, rate: float) -> Trajectory:
-    """The trajectory at `rate` Hz from its first frame: linear interpolation for positions,
-    velocities, thrust, contact forces and landmarks, slerp for the base orientation, the nearest
-    frame for contacts."""
+    """The trajectory at `rate` Hz from its first frame.
+
+    Linear interpolation for positions, velocities, thrust, contact forces and landmarks, slerp
+    for the base orientation, the nearest frame for contacts. The new frames are spaced 1 / rate
+    apart and end at or before the last frame; names and metadata are kept.
+
+    Args:
+        trajectory: the clip, two frames or more.
+        rate: frames per second of the result [Hz].
+
+    Returns:
+        The resampled clip.
+
+    Raises:
+        DatasetError: a rate that is not positive, or a clip of one frame.
+    """
     if rate <= 0:
         raise DatasetError(f"resampling rate must be positive, got {rate}")
     if trajectory.frames < 2:
@@ -198,7 +233,25 @@ def amp_pairs(
     *,
     heading_free: bool = True,
 ) -> AmpPairs:
-    """Pairs of consecutive features of every clip resampled to `rate` (none across clips)."""
+    """Pairs of consecutive features of every clip resampled to `rate` (none across clips).
+
+    Args:
+        trajectories: the clips, each of the robot's joints and jets.
+        robot: the robot of the clips.
+        rate: the control rate the clips are resampled to [Hz].
+        weights: each clip's share of the draws, non-negative with a positive sum, one per
+            clip (None: 1 each); a clip's weight is spread evenly over its transitions.
+        heading_free: as in `amp_features`.
+
+    Returns:
+        The N transitions (chi_t, chi_t+1), each (N, D) float32, with the clip index and the
+        drawing probability (summing to 1) of each, the features' per-column mean and std over
+        every resampled frame, the column names and the rate.
+
+    Raises:
+        DatasetError: no clips, a clip shorter than one control step at `rate`, weights with a
+            negative or non-finite value or no positive sum, or a clip `resample` refuses.
+    """
     if not trajectories:
         raise DatasetError("no clips to build AMP pairs from")
     weights = [1.0] * len(trajectories) if weights is None else list(weights)

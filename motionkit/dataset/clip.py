@@ -68,7 +68,24 @@ _DATA_END = 1 + 8 + 4  # opcode, length, data_section_crc
 
 # -- writing ------------------------------------------------------------------------------------
 def write(path: Path | str, trajectory: Trajectory, robot: Robot, *, tf_rate: float = 15.0) -> Path:
-    """Write a clip atomically (temporary file, then rename); tf_rate 0 leaves /tf out."""
+    """Write a clip atomically (temporary file, then rename); tf_rate 0 leaves /tf out.
+
+    The file holds /motion, /tf, the metadata record and the robot's URDF (see the module
+    doc); missing folders are made.
+
+    Args:
+        path: the .mcap file to write (replaced if it exists).
+        trajectory: the clip, with the robot's joint, jet, foot (and corner) names and its
+            name and model hash in the metadata.
+        robot: the robot the clip was made for.
+        tf_rate: rate of the /tf transforms [Hz]; 0 leaves /tf out.
+
+    Returns:
+        `path`, as a Path.
+
+    Raises:
+        DatasetError: the trajectory's names, robot or model hash differ from `robot`'s.
+    """
     check_against_robot(trajectory, robot)
     path = Path(path)
     with atomic_output(path) as stream:
@@ -77,7 +94,19 @@ def write(path: Path | str, trajectory: Trajectory, robot: Robot, *, tf_rate: fl
 
 
 def encode(trajectory: Trajectory, robot: Robot, *, tf_rate: float = 15.0) -> bytes:
-    """The bytes `write` puts in a clip file (for a worker that hands its clip to the driver)."""
+    """The bytes `write` puts in a clip file (for a worker that hands its clip to the driver).
+
+    Args:
+        trajectory: the clip, as for `write`.
+        robot: the robot the clip was made for.
+        tf_rate: rate of the /tf transforms [Hz]; 0 leaves /tf out.
+
+    Returns:
+        The MCAP file's bytes.
+
+    Raises:
+        DatasetError: the trajectory's names, robot or model hash differ from `robot`'s.
+    """
     check_against_robot(trajectory, robot)
     buffer = BytesIO()
     _write_mcap(buffer, trajectory, robot, tf_rate)
@@ -85,7 +114,14 @@ def encode(trajectory: Trajectory, robot: Robot, *, tf_rate: float = 15.0) -> by
 
 
 def corner_names(robot: Robot) -> tuple[str, ...]:
-    """The robot's sole corners, feet in spec order: the rows of `contact_forces`."""
+    """The robot's sole corners, feet in spec order: the rows of `contact_forces`.
+
+    Args:
+        robot: the robot whose spec names the feet and their corner frames.
+
+    Returns:
+        The corner frame names, each foot's corners in its spec's order.
+    """
     return tuple(corner for foot in robot.spec.feet for corner in foot.corners)
 
 
@@ -225,8 +261,25 @@ def _frame_transforms(
 
 # -- reading ------------------------------------------------------------------------------------
 def read(path: Path | str, start: float | None = None, end: float | None = None) -> Trajectory:
-    """A clip as arrays. With start and/or end [s], only the frames in [start, end], reading
-    only the chunks that hold them; a whole read also checks the file's CRCs."""
+    """A clip as arrays.
+
+    With start and/or end, only the frames in [start, end], reading only the chunks that hold
+    them; a whole read also checks the file's CRCs and that the metadata's frames, rate and
+    duration are the motion's.
+
+    Args:
+        path: the .mcap clip.
+        start: the first time to keep [s] (None: from the first frame).
+        end: the last time to keep [s] (None: to the last frame).
+
+    Returns:
+        The clip: float64 time [s], float32 arrays frame-major (see `Trajectory`), its names
+        and metadata.
+
+    Raises:
+        DatasetError: a file that cannot be read, is not an MCAP motionkit clip, fails a CRC,
+            has invalid metadata or motion, or has no frame in [start, end].
+    """
     path = Path(path)
     try:
         with open_input(path, DatasetError, "the clip") as handle:
@@ -240,8 +293,20 @@ def read(path: Path | str, start: float | None = None, end: float | None = None)
 
 
 def read_metadata(path: Path | str) -> tuple[Metadata, dict[str, str]]:
-    """The clip's metadata and its raw record (frames, rate, names...), without the motion;
-    every field of the record is checked (types, ranges)."""
+    """The clip's metadata and its raw record (frames, rate, names...), without the motion.
+
+    Every field of the record is checked (types, ranges).
+
+    Args:
+        path: the .mcap clip.
+
+    Returns:
+        The Metadata and the record (string -> string; lists and tables as JSON).
+
+    Raises:
+        DatasetError: a file that cannot be read, is not an MCAP motionkit clip, or whose
+            record lacks a field or has one of the wrong type.
+    """
     path = Path(path)
     try:
         with open_input(path, DatasetError, "the clip") as handle:

@@ -245,7 +245,18 @@ _TEMPLATE_HINT = "load_mocap(path, mapping='my_skeleton.toml')"
 
 
 def mapping_template(guess: Mapping[str, str] | None = None) -> str:
-    """A mapping TOML with every landmark key, filled from `guess` where known."""
+    """A mapping TOML with every landmark key, filled from `guess` where known.
+
+    The text `load_mocap(..., mapping=)` reads: a `[landmarks]` table, one line per landmark
+    in LANDMARKS order, each with a comment saying which joint it is.
+
+    Args:
+        guess: landmark -> joint name of the landmarks known already; the others (all of
+            them with None) get "".
+
+    Returns:
+        The TOML text (no trailing newline).
+    """
     guess = guess or {}
     lines = ["[landmarks]"]
     for key in LANDMARKS:

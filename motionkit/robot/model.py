@@ -171,7 +171,14 @@ def _prepare(model: RobotModel, spec: RobotSpec) -> tuple[RobotModel, tuple[str,
 
 
 def cache_dir() -> Path:
-    """Where generated robot files live: $MOTIONKIT_CACHE or the user's cache directory."""
+    """The folder generated robot files live in.
+
+    $MOTIONKIT_CACHE where it is set, otherwise the user's cache directory for motionkit
+    (platformdirs). The folder is not created.
+
+    Returns:
+        The cache folder; robot exports go to its robots/<name>-<model hash>/.
+    """
     if "MOTIONKIT_CACHE" in os.environ:
         return Path(os.environ["MOTIONKIT_CACHE"])
     from platformdirs import user_cache_dir
@@ -189,7 +196,23 @@ def cached_file(robot: Robot, filename: str, text: str) -> Path:
 
 
 def load_robot(urdf: Path | None = None, spec: Path | None = None) -> Robot:
-    """iRonCub when no URDF is given; otherwise the user's URDF with its spec TOML."""
+    """The robot every stage works on: iRonCub, or a user's URDF with its spec.
+
+    With no arguments, the built-in iRonCub (`ironcub()`); otherwise the URDF checked against
+    the spec, with only the spec's joints movable (the others made fixed).
+
+    Args:
+        urdf: the user robot's URDF file; None for iRonCub.
+        spec: the robot spec TOML of that URDF (joints, jets, feet, posture...); required with
+            `urdf`, refused without it.
+
+    Returns:
+        The validated robot.
+
+    Raises:
+        RobotModelError: a spec without a URDF, a URDF without a spec, or a URDF or spec that
+            cannot be read or does not fit the other.
+    """
     if urdf is None:
         if spec is not None:
             raise RobotModelError("--spec describes a user robot and needs --urdf as well")
@@ -201,7 +224,14 @@ def load_robot(urdf: Path | None = None, spec: Path | None = None) -> Robot:
 
 @lru_cache(maxsize=1)
 def ironcub() -> Robot:
-    """The iRonCub model built from icub-models (built once per process)."""
+    """The built-in iRonCub robot.
+
+    Built from the installed icub-models with the iRonCub-Mk1_1 changes and the spec shipped
+    with motionkit, once per process (later calls return the same object).
+
+    Returns:
+        The iRonCub robot.
+    """
     from importlib.metadata import version
 
     from motionkit.robot.ironcub_build import SOURCE_MODEL, build_ironcub_model

@@ -42,9 +42,27 @@ def run_ablation(
     robot: Robot,
     progress: Callable[[str], None] = print,
 ) -> dict[str, Any]:
-    """Train the four settings into OUT/<setting>/ (a setting with a summary.json is kept),
-    then write OUT/ablation.json (every final evaluation), OUT/ablation.md (their table) and
-    OUT/ablation.png."""
+    """Train the four prior settings, then compare their final evaluations.
+
+    Each setting (walk+flight, walk, flight, none) trains into OUT/<setting>/ ("+" as "_"); a
+    setting with a summary.json there is kept. Then OUT/ablation.json (every final
+    evaluation), OUT/ablation.md (their table) and OUT/ablation.png (the radar chart) are
+    written.
+
+    Args:
+        config: the training config, with both [priors.walk] and [priors.flight].
+        out: the ablation's folder (OUT).
+        robot: the robot to train.
+        progress: called with each line of progress.
+
+    Returns:
+        "settings" (setting -> its priors), "figures" (setting -> radar axis -> value),
+        "evaluations" (setting -> its final evaluation) and "table" (the Markdown table).
+
+    Raises:
+        TrainError: a config without the walk or flight prior, an `out` that holds files
+            motionkit did not write, or any error of a setting's training run.
+    """
     from motionkit.train.runner import train
 
     missing = [name for name in ("walk", "flight") if name not in config.priors]

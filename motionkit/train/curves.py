@@ -52,7 +52,21 @@ def running_mean(values: np.ndarray, window: int) -> np.ndarray:
 
 
 def draw_curves(run: Path, path: Path | None = None) -> Path:
-    """Draw RUN/train.csv and RUN/eval.csv into `path` (default RUN/curves.png)."""
+    """Draw RUN/train.csv and RUN/eval.csv into `path` (default RUN/curves.png).
+
+    One panel per entry of PANELS over env-steps: the training figures per iteration with a
+    running mean, the evaluations as points.
+
+    Args:
+        run: the training run's folder.
+        path: the PNG to write (None: RUN/curves.png).
+
+    Returns:
+        The PNG's path.
+
+    Raises:
+        TrainError: no train.csv with env_steps in `run`, or no matplotlib.
+    """
     train = read_table(run / "train.csv")
     if "env_steps" not in train:
         raise TrainError(f"{run}: no train.csv with env_steps to draw")

@@ -305,10 +305,32 @@ def play(
     seconds: float = 20.0,
     live: Callable[[Env, list[np.ndarray]], FrameWatcher] | None = None,
 ) -> tuple[Played, list[np.ndarray]]:
-    """Roll `policy` out for `robot` from the standing pose toward `route` (None: a random
-    route of `count` waypoints drawn with `seed`) and write the clip to `path` (whose folder
-    check_out/claim_out vouch for; nothing is written on an error). `live(env, route)` makes a
-    watcher (a viewer) that sees each step in real time and may add waypoints."""
+    """Roll `policy` out for `robot` from the standing pose toward waypoints, into a clip.
+
+    The clip goes to `path` (whose folder check_out/claim_out vouch for; nothing is written on
+    an error). The run ends after the last waypoint (not with `live`), at a fall or after
+    `seconds`.
+
+    Args:
+        policy: the policy to roll out (`load_policy`).
+        robot: the robot it acts for.
+        path: the .mcap clip to write.
+        route: waypoints (3,) each, world frame [m]; None: a random route.
+        count: the number of waypoints of a random route.
+        seed: the seed a random route is drawn with.
+        seconds: the longest the rollout lasts [s].
+        live: `live(env, route)` makes a watcher (a viewer) that sees each step in real time
+            and may add waypoints; None: none, and no real-time pacing.
+
+    Returns:
+        What the rollout did (frames, the ways to the waypoints, how it ended, timings) and
+        the route, given or drawn.
+
+    Raises:
+        TrainError: `seconds` not > 0, a folder of `path` that cannot take the clip, a policy
+            for another robot layout, a random route of fewer than 1 waypoint, an empty
+            route, or a rollout shorter than two frames.
+    """
     if not (np.isfinite(seconds) and seconds > 0):
         raise TrainError(f"--seconds {seconds}: expected a duration > 0")
     check_out(path.parent, [path.name], TrainError)

@@ -95,8 +95,21 @@ def default_policy() -> Path:
 
 
 def load_policy(path: Path | str | None = None) -> Policy:
-    """The policy in `path`: an exported policy folder (or its policy.msgpack), a training
-    run's folder, or the name of a shipped policy; None: the shipped one."""
+    """The policy in `path`: an exported policy, a training run or a shipped policy.
+
+    Args:
+        path: an exported policy folder (or its policy.msgpack), a training run's folder, or
+            the name of a shipped policy; None: the one policy that ships.
+
+    Returns:
+        The policy: its actor, observation normaliser, training config, the robot layout it
+        was exported for ({} for a run folder) and the run's summary.
+
+    Raises:
+        TrainError: no such file or folder, a folder that holds no policy, none or several
+            shipped policies (for None), or files that cannot be read or whose actor does not
+            match its config.
+    """
     if path is None:
         path = default_policy()
     path = Path(path)
@@ -220,10 +233,25 @@ def policy_env(policy: Policy, robot: Robot) -> Env:
 
 # -- export -------------------------------------------------------------------------------------
 def export_policy(run: Path, out: Path, robot: Robot, *, half: bool = False) -> dict[str, int]:
-    """Write the policy of training run `run` into `out` (see the module doc); the bytes of
-    each file written. `half`: the actor's weights as float16 (half the bytes; actions within
-    about 1e-3 of the run's). A TrainError, with nothing written, when the package would exceed
-    MAX_BYTES or the run's policy does not fit `robot`."""
+    """Write the policy of training run `run` into `out` (see the module doc).
+
+    Nothing is written on an error.
+
+    Args:
+        run: the training run's folder (config.toml and checkpoint).
+        out: the policy package's folder.
+        robot: the robot the policy acts for; its layout is written with it.
+        half: store the actor's weights as float16 (half the bytes; actions within about
+            1e-3 of the run's).
+
+    Returns:
+        The bytes of each file written, by file name.
+
+    Raises:
+        TrainError: `run` is not a training run, its policy does not fit `robot`, its jet
+            model cannot be read, the package would exceed MAX_BYTES, or `out` holds files
+            motionkit did not write.
+    """
     run, out = Path(run), Path(out)
     if not ((run / CONFIG).is_file() and (run / CHECKPOINT).is_file()):
         raise TrainError(f"{run}: not a training run (no {CONFIG} and {CHECKPOINT})")

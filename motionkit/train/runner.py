@@ -50,8 +50,23 @@ def envs_split(config: TrainConfig) -> int:
 
 
 def make_env(config: TrainConfig, robot: Robot, prior: PriorData | None = None) -> Env:
-    """The environment of a config (with its LSTM jets loaded) and the priors it resets from,
-    sized for the environments of one device."""
+    """The environment of a config (with its LSTM jets loaded) and the priors it resets from.
+
+    It is sized for the environments of one device: `ppo.num_envs` divided by the devices
+    they are split over.
+
+    Args:
+        config: the training config ([env], [reward], [ppo] num_envs, [run] devices).
+        robot: the robot to simulate.
+        prior: the dataset transitions and states episodes reset from (None: none).
+
+    Returns:
+        The environment.
+
+    Raises:
+        TrainError: a jet model that cannot be loaded, environments that cannot be split
+            over the devices, or priors made for another robot layout.
+    """
     jet_model = None
     if config.env.jet != "ideal":
         from motionkit.errors import JetIdentError
@@ -78,9 +93,29 @@ def train(
     stop: Callable[[dict[str, float]], bool] | None = None,
 ) -> dict[str, Any]:
     """Train (or resume) in `out`; returns the summary also written to OUT/summary.json.
-    `stop(evaluation)` ends the run early after an evaluation that satisfies it. A run stopped
-    by `max_minutes` (counted from the call, setup and compilation included) is evaluated
-    before it returns, like one that completes its iterations."""
+
+    A run stopped by `max_minutes` (counted from the call, setup and compilation included) is
+    evaluated before it returns, like one that completes its iterations. The folder's files
+    are listed in the module doc.
+
+    Args:
+        config: the training config; its [priors] tables name the motion priors.
+        out: the run's folder (OUT).
+        robot: the robot to train.
+        resume: continue the run in `out` from its checkpoint; False needs a folder without
+            one.
+        progress: called with each line of progress.
+        stop: called with each evaluation's figures; True ends the run early.
+
+    Returns:
+        The summary: priors, iterations, env_steps, seconds, the last iteration's training
+        figures ("train") and the last evaluation's ("eval").
+
+    Raises:
+        TrainError: `resume` without a checkpoint in `out`, a checkpoint there without
+            `resume`, an `out` that holds files motionkit did not write, or a config, jet
+            model or prior clips the robot cannot train with.
+    """
     start = time.perf_counter()
     out = Path(out)
     checkpoint = out / NAME

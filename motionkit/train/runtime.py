@@ -9,16 +9,34 @@ from motionkit.extras import require
 
 
 def require_train_extra(what: str = "train") -> None:
-    """TrainError naming `what` and the [train] extra when JAX, flax, optax or MuJoCo is
-    missing."""
+    """Check up front that the [train] extra imports.
+
+    JAX, flax, optax and MuJoCo are imported (quietly), and MJX with them.
+
+    Args:
+        what: what needs the extra, as the error names it.
+
+    Returns:
+        None, once every module imported.
+
+    Raises:
+        TrainError: naming `what`, the missing module and the [train] extra to install.
+    """
     require("train", what, TrainError, ("jax", "flax", "optax", "mujoco"))
     from motionkit.train.env.mjx import mjx  # noqa: F401  (quietly: no warp notice)
 
 
 def enable_compile_cache() -> None:
-    """Keep XLA's compiled programs in the user cache's jax/ (or at JAX_COMPILATION_CACHE_DIR,
-    JAX's own variable, where it is set: a cache that machines or jobs share): a resumed run
-    or the next setting of an ablation skips most of the minutes MJX takes to compile."""
+    """Keep XLA's compiled programs in a persistent cache.
+
+    The cache is the user cache's jax/ (or JAX_COMPILATION_CACHE_DIR, JAX's own variable,
+    where it is set: a cache that machines or jobs share); programs that took 2 s or more to
+    compile are kept. A resumed run or the next setting of an ablation then skips most of the
+    minutes MJX takes to compile. Needs JAX (the [train] extra).
+
+    Returns:
+        None; JAX's config is set for the rest of the process.
+    """
     import jax
 
     from motionkit.robot import cache_dir

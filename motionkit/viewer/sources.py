@@ -66,8 +66,22 @@ class ClipInfo:
 
 
 def resolve_clips(path: Path | str) -> list[ClipInfo]:
-    """A clip, or every *.mcap under a folder (newest first), each with its metadata checked;
-    a ViewerError names the first missing or unreadable file."""
+    """A clip, or every *.mcap under a folder (newest first), each with its metadata checked.
+
+    Only the metadata is read, not the motion. Hidden files (a leading ".") in a folder are
+    left out.
+
+    Args:
+        path: a .mcap clip, or a folder searched recursively for them.
+
+    Returns:
+        One ClipInfo (path, metadata, raw record, modification time) per clip, the most
+        recently modified first.
+
+    Raises:
+        ViewerError: a missing path, a folder without clips, or the first clip whose metadata
+            cannot be read.
+    """
     path = Path(path)
     if path.is_dir():
         files = [p for p in path.rglob("*.mcap") if p.is_file() and not p.name.startswith(".")]
