@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from motionkit import digests, recipes
-from motionkit.digests import code_digest, digest, import_closure
+from motionkit.digests import code_digest, import_closure
 from motionkit.pipeline import stages
 from motionkit.pipeline.config import PipelineConfig
 
@@ -54,16 +54,9 @@ def test_indirect_changes_change_the_digest_and_unrelated_ones_do_not(package: P
     assert after_filter[0] != after_naming[0] and after_filter[1] != after_naming[1]
 
 
-class KeysOnly(stages.Context):
-    """A pipeline context that records each stage's key instead of running the stage."""
-
-    def run(self, stage, parts, folder, work):
-        self.keys[stage] = digest(stage, *parts)
-
-
 def stage_keys(robot, out: Path) -> dict[str, str]:
     config = PipelineConfig.from_toml(recipes.find("pipeline", "tiny_cpu"))
-    ctx = KeysOnly(config, out, robot)
+    ctx = stages.DryRun(config, out, robot)  # keys, no work
     stages.retarget(ctx)
     stages.trajopt(ctx)
     return dict(ctx.keys)

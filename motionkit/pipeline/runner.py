@@ -11,7 +11,7 @@ from motionkit.errors import MotionkitError, PipelineError
 from motionkit.outputs import claim_out, write_text_atomic
 from motionkit.pipeline.cache import STAGING, Outcome
 from motionkit.pipeline.config import PipelineConfig
-from motionkit.pipeline.stages import STAGE_FOLDERS, STAGES, Context
+from motionkit.pipeline.stages import STAGE_FOLDERS, STAGES, Context, DryRun
 from motionkit.robot import Robot
 
 STAGE_NAMES = tuple(name for name, _ in STAGES)
@@ -37,10 +37,16 @@ def run_pipeline(
     if until is not None and until not in STAGE_NAMES:
         raise PipelineError(f"unknown stage '{until}'; the stages: {', '.join(STAGE_NAMES)}")
     ctx = Context(config, Path(out).resolve(), robot, mocap_dir, full, force, fetch, cluster)
+    last = STAGE_NAMES.index(until or STAGE_NAMES[-1])
+    dry = DryRun(config, ctx.out, robot, mocap_dir, full, force, fetch, cluster)
+    for name, stage in STAGES[: last + 1]:  # every recipe and input checked before OUT is made
+        try:
+            stage(dry)
+        except MotionkitError as exc:
+            raise PipelineError(f"stage {name}: {exc}") from exc
     claim_out(ctx.out, OUT_NAMES, PipelineError)
     start = time.perf_counter()
     outcomes = []
-    last = STAGE_NAMES.index(until or STAGE_NAMES[-1])
     for number, (name, stage) in enumerate(STAGES[: last + 1], 1):
         print(f"\n=== [{number}/{last + 1}] {name}", flush=True)
         tick = time.perf_counter()

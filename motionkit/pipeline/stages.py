@@ -51,6 +51,16 @@ class Context:
         return run_cached(stage, key, self.folder(folder), self.records, work, self.force)
 
 
+class DryRun(Context):
+    """A context in which the stages load and check their recipes and inputs and compute
+    their keys, but run nothing: a bad recipe is found before OUT is written to."""
+
+    def run(self, stage: str, parts: tuple, folder: str, work: Callable[[Path], str]) -> Outcome:
+        key = digest(stage, *parts)
+        self.keys[stage] = key
+        return Outcome(stage, "checked", 0.0, "", str(self.folder(folder)), key)
+
+
 def _retarget_recipe(ctx: Context) -> str:
     if not ctx.fetch:
         return ctx.config.retarget.recipe
