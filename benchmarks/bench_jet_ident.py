@@ -74,7 +74,7 @@ def fit_and_score(config: JetIdentConfig) -> LSTMThrust:
         f"{bench.duration_s:.0f} s each at {bench.rate_hz:g} Hz; logs made in {made:.1f} s"
     )
     start = time.perf_counter()
-    result = identify(train, config, progress=None)
+    result = identify(train, config)
     fit_seconds = time.perf_counter() - start
     logs = [run.log for run in heldout]
     metrics, _ = evaluate(result.models(), logs, config.train.warmup)

@@ -46,7 +46,7 @@ def measure(clip: ClipInput, config: RetargetConfig, out: Path) -> dict[str, flo
     robot = ironcub()
     trajectory = read(result.output)
     physics = check_physics(trajectory, robot).summary()
-    metrics = result.metrics
+    q = result.quality
     return {
         "seconds": seconds,
         "cop_single": physics["cop_inside_share_single_support"],
@@ -54,12 +54,11 @@ def measure(clip: ClipInput, config: RetargetConfig, out: Path) -> dict[str, flo
         "worst": physics["worst_joint"],
         "falls_ff": track_windows(trajectory, robot, stride=0.1).fall_share,
         "falls_pd": track_windows(trajectory, robot, stride=0.1, feedforward=False).fall_share,
-        "slide": 100 * float(metrics["foot_slide_p95_m_s"]),
-        "sink": 1000 * float(metrics["penetration_max_m"]),
-        "limits": int(metrics["joint_position_violations"])
-        + int(metrics["joint_velocity_violations"]),
-        "feet": 100 * float(metrics["feet_error_mean_m"]),
-        "knees": 100 * float(metrics["knees_error_mean_m"]),
+        "slide": 100 * q.foot_slide_p95_m_s,
+        "sink": 1000 * q.penetration_max_m,
+        "limits": q.joint_position_violations + q.joint_velocity_violations,
+        "feet": 100 * q.feet_error_mean_m,
+        "knees": 100 * q.knees_error_mean_m,
     }
 
 

@@ -57,13 +57,13 @@ def report(name: str, results: list[ClipResult]) -> float:
     split = "  ".join(f"{s} {1000 * v / frames:.3f}" for s, v in seconds.items())
     print(f"{name:<34} {frames / total:8.0f} frames/s   ms/frame: {split}")
     for r in results:
-        m = r.metrics
+        q = r.quality
         print(
             f"    {r.name:<24} {r.frames:5d} frames  "
-            f"slide p95 {100 * m['foot_slide_p95_m_s']:.2f} cm/s  "
-            f"sink {1000 * m['penetration_max_m']:.2f} mm  "
-            f"feet {100 * m['feet_error_mean_m']:.2f} cm  "
-            f"jets/arms clear {100 * m['closest_jet_or_arm_m']:.1f} cm"
+            f"slide p95 {100 * q.foot_slide_p95_m_s:.2f} cm/s  "
+            f"sink {1000 * q.penetration_max_m:.2f} mm  "
+            f"feet {100 * q.feet_error_mean_m:.2f} cm  "
+            f"jets/arms clear {100 * q.closest_jet_or_arm_m:.1f} cm"
         )
     return frames / total
 

@@ -23,6 +23,12 @@ is its URDF plus a spec TOML (--spec) shaped like motionkit/robot/ironcub.toml: 
 feet and sole corners, jet frames with their maximum thrust, standing posture."""
 
 
+def echo(line: str) -> None:
+    """The commands' progress callback (motionkit.progress): each line on stdout at once. At
+    module level, so that worker processes can take it too."""
+    print(line, flush=True)
+
+
 def add_robot_source(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--urdf", type=Path, help="a user robot's URDF (default: iRonCub)")
     parser.add_argument("--spec", type=Path, help="the user robot's spec TOML (with --urdf)")

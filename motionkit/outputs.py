@@ -11,6 +11,7 @@ import os
 import re
 import tempfile
 from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import IO, Any
 
@@ -70,16 +71,42 @@ def inside(folder: Path, name: str, error: type[MotionkitError]) -> Path:
     return path
 
 
-def written_names(folder: Path) -> set[str] | None:
-    """The names the manifest of `folder` lists; None when it has none."""
-    try:
-        data = json.loads((Path(folder) / MANIFEST).read_text())
-    except FileNotFoundError:
-        return None
-    except (OSError, ValueError):
-        return set()  # unreadable: vouches for nothing
-    files = data.get("files") if isinstance(data, dict) else None
-    return {n for n in files if isinstance(n, str)} if isinstance(files, list) else set()
+@dataclass(frozen=True)
+class Manifest:
+    """What the manifest of a folder says: the top-level names motionkit wrote there, and beside
+    each name a batch wrote (clips, trajopt targets) the key of its task: the hash of what the
+    task read, so that `--resume` keeps an output whose key is unchanged."""
+
+    files: frozenset[str] = frozenset()
+    keys: dict[str, str] = field(default_factory=dict)  # name -> key
+
+    @classmethod
+    def load(cls, folder: Path) -> Manifest:
+        """The manifest of `folder`; empty when it has none or it cannot be read (it then
+        vouches for nothing)."""
+        try:
+            data = json.loads((Path(folder) / MANIFEST).read_text())
+        except (OSError, ValueError):
+            return cls()
+        data = data if isinstance(data, dict) else {}
+        files = data.get("files") if isinstance(data.get("files"), list) else []
+        keys = data.get("keys") if isinstance(data.get("keys"), dict) else {}
+        return cls(
+            frozenset(n for n in files if isinstance(n, str)),
+            {n: k for n, k in keys.items() if isinstance(n, str) and isinstance(k, str)},
+        )
+
+    def save(self, folder: Path) -> None:
+        """Written into `folder` atomically; the keys of names it does not list are dropped."""
+        files = sorted(self.files - {MANIFEST})
+        keys = {n: self.keys[n] for n in sorted(self.keys) if n in self.files}
+        data: dict[str, Any] = {"files": files, "keys": keys} if keys else {"files": files}
+        write_text_atomic(Path(folder) / MANIFEST, json.dumps(data, indent=1) + "\n")
+
+
+def written_names(folder: Path) -> frozenset[str]:
+    """The names the manifest of `folder` lists."""
+    return Manifest.load(folder).files
 
 
 def foreign_entries(folder: Path, names: Iterable[str] | None = None) -> list[str]:
@@ -88,7 +115,7 @@ def foreign_entries(folder: Path, names: Iterable[str] | None = None) -> list[st
     folder = Path(folder)
     if not folder.is_dir():
         return []
-    listed = written_names(folder) or set()
+    listed = Manifest.load(folder).files
     present = {p.name for p in folder.iterdir()} if names is None else set(names)
     return sorted(
         n
@@ -132,9 +159,9 @@ def claim_out(folder: Path, names: Iterable[str], error: type[MotionkitError]) -
     written, so that an interrupted run leaves no file the manifest does not vouch for)."""
     names = set(names)
     check_out(folder, names, error)
-    listed = written_names(folder) or set()
-    if not names <= listed:
-        record_names(folder, listed | names)
+    manifest = Manifest.load(folder)
+    if not names <= manifest.files:
+        replace(manifest, files=manifest.files | names).save(folder)
     return Path(folder)
 
 
@@ -156,36 +183,16 @@ def claimed_out(folder: Path, names: Iterable[str], error: type[MotionkitError])
 def record_names(folder: Path, names: Iterable[str]) -> None:
     """Write the manifest of `folder`: the top-level names motionkit wrote there (the keys of
     those still listed are kept)."""
-    files = sorted(set(names) - {MANIFEST})
-    keys = {n: k for n, k in recorded_keys(folder).items() if n in files}
-    _write_manifest(Path(folder), files, keys)
-
-
-def _write_manifest(folder: Path, files: list[str], keys: dict[str, str]) -> None:
-    data: dict[str, Any] = {"files": files}
-    if keys:
-        data["keys"] = dict(sorted(keys.items()))
-    write_text_atomic(folder / MANIFEST, json.dumps(data, indent=1) + "\n")
-
-
-# A batch (clips, trajopt targets) records beside each name the key of the task that wrote it:
-# the hash of what the task read, so that `--resume` keeps an output whose key is unchanged.
-def recorded_keys(folder: Path) -> dict[str, str]:
-    """name -> the key of the task that wrote it, as the manifest of `folder` says."""
-    try:
-        data = json.loads((Path(folder) / MANIFEST).read_text())
-    except (OSError, ValueError):
-        return {}
-    keys = data.get("keys") if isinstance(data, dict) else None
-    if not isinstance(keys, dict):
-        return {}
-    return {n: k for n, k in keys.items() if isinstance(n, str) and isinstance(k, str)}
+    replace(Manifest.load(folder), files=frozenset(names)).save(folder)
 
 
 def up_to_date(folder: Path, names: Iterable[str], key: str) -> bool:
     """Whether every one of `names` is in `folder`, listed in its manifest with `key`."""
-    listed, keys = written_names(folder) or set(), recorded_keys(folder)
-    return all(n in listed and keys.get(n) == key and (Path(folder) / n).is_file() for n in names)
+    manifest = Manifest.load(folder)
+    return all(
+        n in manifest.files and manifest.keys.get(n) == key and (Path(folder) / n).is_file()
+        for n in names
+    )
 
 
 def write_files(folder: Path, files: dict[str, bytes], key: str = "") -> None:
@@ -194,15 +201,16 @@ def write_files(folder: Path, files: dict[str, bytes], key: str = "") -> None:
     forgotten before it is rewritten, so that an interrupt never leaves a new file with an
     old key or an old file with a new key."""
     folder = Path(folder)
-    listed, keys = written_names(folder) or set(), recorded_keys(folder)
-    if any(n in keys for n in files):
-        _write_manifest(folder, sorted(listed), {n: k for n, k in keys.items() if n not in files})
+    manifest = Manifest.load(folder)
+    if any(n in manifest.keys for n in files):
+        keys = {n: k for n, k in manifest.keys.items() if n not in files}
+        manifest = replace(manifest, keys=keys)
+        manifest.save(folder)
     for name, data in files.items():
         with atomic_output(folder / name) as stream:
             stream.write(data)
     if key:
-        keys = recorded_keys(folder) | dict.fromkeys(files, key)
-        _write_manifest(folder, sorted(written_names(folder) or set()), keys)
+        replace(manifest, keys=manifest.keys | dict.fromkeys(files, key)).save(folder)
 
 
 def remove_temporaries(folder: Path, pids: Iterable[int]) -> None:

@@ -1,10 +1,19 @@
-"""Progress of long work on stderr, fit for a terminal and for a log file alike."""
+"""Progress of long work. Library code reports it to a `Progress` callback (`silent` by default)
+and never prints; the commands pass one that prints. `LineProgress` draws one task's progress on
+stderr, fit for a terminal and for a log file alike."""
 
 from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Callable
 from typing import TextIO
+
+Progress = Callable[[str], None]  # receives each line of a stage's progress
+
+
+def silent(line: str) -> None:
+    """The library's progress by default: nothing shown."""
 
 
 class LineProgress:

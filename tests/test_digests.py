@@ -68,11 +68,11 @@ def test_pipeline_stages_and_resume_keys_see_indirect_changes(
     from motionkit.retarget.batch import clip_key, resolve_inputs
     from motionkit.retarget.config import RetargetConfig
     from motionkit.trajopt.config import TrajoptConfig
-    from motionkit.trajopt.runner import task_key
+    from motionkit.trajopt.runner import Task, task_key
 
     clip = resolve_inputs([str(package / "sample" / "cmu" / "02_01.bvh")])[0]
     retarget_config = RetargetConfig()
-    task = (TrajoptConfig().to_dict(), "flight", False, toy_robot)
+    task = Task(TrajoptConfig().to_dict(), "flight", False, toy_robot)
 
     def keys() -> tuple[dict[str, str], str, str]:
         pipeline = stage_keys(toy_robot, tmp_path / "out")

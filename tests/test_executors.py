@@ -20,9 +20,9 @@ from motionkit.executors import InProcess, Processes, cluster_address, open_exec
 from motionkit.executors import _ray_session as ray_session
 from motionkit.outputs import (
     MANIFEST,
+    Manifest,
     claim_out,
     record_names,
-    recorded_keys,
     up_to_date,
     write_files,
 )
@@ -135,9 +135,9 @@ def test_task_keys_in_the_manifest(tmp_path: Path) -> None:
     assert up_to_date(tmp_path, ["a.bin", "b.bin"], "k1")
     assert not up_to_date(tmp_path, ["a.bin"], "k2")
     claim_out(tmp_path, ["c.bin"], RetargetError)
-    assert recorded_keys(tmp_path) == {"a.bin": "k1", "b.bin": "k1"}
+    assert Manifest.load(tmp_path).keys == {"a.bin": "k1", "b.bin": "k1"}
     write_files(tmp_path, {"b.bin": b"3"}, "k2")
-    assert recorded_keys(tmp_path) == {"a.bin": "k1", "b.bin": "k2"}
+    assert Manifest.load(tmp_path).keys == {"a.bin": "k1", "b.bin": "k2"}
     assert (tmp_path / "b.bin").read_bytes() == b"3"
     (tmp_path / "a.bin").unlink()
     assert not up_to_date(tmp_path, ["a.bin"], "k1")
@@ -145,4 +145,4 @@ def test_task_keys_in_the_manifest(tmp_path: Path) -> None:
     data = json.loads((tmp_path / MANIFEST).read_text())
     assert data == {"files": ["b.bin"], "keys": {"b.bin": "k2"}}
     write_files(tmp_path, {"b.bin": b"4"})  # no key: none recorded
-    assert recorded_keys(tmp_path) == {}
+    assert Manifest.load(tmp_path).keys == {}

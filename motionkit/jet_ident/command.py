@@ -6,6 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
+from motionkit.cli import echo
 from motionkit.errors import JetIdentError
 from motionkit.extras import require
 from motionkit.jet_ident.benchlog import COLUMNS, read_log
@@ -139,7 +140,7 @@ def _fit(args: argparse.Namespace) -> int:
     _require_train_extra()
     from motionkit.jet_ident.fit import fit_logs
 
-    fit_logs(args.logs, Path(args.out), _config(args.config))
+    fit_logs(args.logs, Path(args.out), _config(args.config), progress=echo)
     return 0
 
 
@@ -177,6 +178,8 @@ def _eval(args: argparse.Namespace) -> int:
     else:
         print(f"free run over {len(logs)} log(s) after {warmup} warm-up samples")
         print(report_table(results, floor))
-    if args.plot and plot_models(args.plot, logs[0], models, warmup) and not args.json:
-        print(f"wrote {args.plot}")
+    if args.plot:
+        plot_models(args.plot, logs[0], models, warmup)
+        if not args.json:
+            print(f"wrote {args.plot}")
     return 0

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -250,16 +249,11 @@ def plot(path: Path, log: BenchLog, runs: Mapping[str, np.ndarray], warmup: int)
     plt.close(figure)
 
 
-def plot_models(path: Path, log: BenchLog, models: Mapping[str, Any], warmup: int) -> bool:
-    """Free-run every model over `log` and plot them (`plot`); False, with a notice on stderr,
-    where the plot cannot be drawn (no matplotlib)."""
+def plot_models(path: Path, log: BenchLog, models: Mapping[str, Any], warmup: int) -> None:
+    """Free-run every model over `log` and plot them (`plot`); JetIdentError where the plot
+    cannot be drawn (no matplotlib)."""
     runs = {
         name: model.free_run(log.thrust, log.throttle, warmup, log.dt)
         for name, model in models.items()
     }
-    try:
-        plot(path, log, runs, warmup)
-    except JetIdentError as exc:
-        print(f"plot skipped: {exc}", file=sys.stderr)
-        return False
-    return True
+    plot(path, log, runs, warmup)

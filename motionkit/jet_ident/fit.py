@@ -5,7 +5,7 @@ writes the model and its reports."""
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -25,6 +25,7 @@ from motionkit.jet_ident.evaluate import (
 from motionkit.jet_ident.export import baselines_metadata, save_model, selected
 from motionkit.jet_ident.train import TrainResult, split_logs, train_lstm
 from motionkit.outputs import check_out, claim_out, write_text_atomic
+from motionkit.progress import Progress, silent
 
 SMOOTHING_S = (0.3, 0.5, 0.7, 1.0)  # baseline derivative filters tried; validation picks one
 LSTM, GREY_BOX, FIRST_ORDER = "LSTM", "grey-box 2nd order", "first-order lag"
@@ -49,38 +50,49 @@ class Identification:
         }
 
 
+@dataclass(frozen=True)
+class Baselines:
+    """Both baselines fitted with one derivative filter, and their validation figures."""
+
+    smoothing_s: float
+    grey_box: GreyBox
+    first_order: FirstOrderLag
+    metrics: dict[str, Metrics]
+
+
+def _fit_baselines(
+    train: Sequence[BenchLog], validation: Sequence[BenchLog], warmup: int, smoothing_s: float
+) -> Baselines:
+    grey, lag = fit_grey_box(train, smoothing_s), fit_first_order(train, smoothing_s)
+    metrics, _ = evaluate({GREY_BOX: grey, FIRST_ORDER: lag}, validation, warmup)
+    return Baselines(smoothing_s, grey, lag, metrics)
+
+
 def identify(
-    logs: Sequence[BenchLog],
-    config: JetIdentConfig,
-    progress: Callable[[str], None] | None = None,
+    logs: Sequence[BenchLog], config: JetIdentConfig, progress: Progress = silent
 ) -> Identification:
     """Fit the LSTM (train.py) and the baselines (their filter width chosen by validation RMSE)
     on the training blocks of every log; score all three on its validation blocks."""
-    say = progress or (lambda _: None)
     fraction, warmup = config.train.validation_fraction, config.train.warmup
     train, validation = split_logs(logs, fraction, config.train.validation_blocks)
-    say(f"training the LSTM on {sum(t.samples for t in train)} samples of {len(logs)} log(s)")
+    progress(f"training the LSTM on {sum(t.samples for t in train)} samples of {len(logs)} log(s)")
     training = train_lstm(logs, config.model, config.train, progress)
-    say(
+    progress(
         f"LSTM: {training.prior} prior, best at step {training.best_step} ({training.stopped}, "
         f"{training.seconds:.0f} s)"
     )
-    candidates = []
-    for smoothing in SMOOTHING_S:
-        pair = {
-            GREY_BOX: fit_grey_box(train, smoothing),
-            FIRST_ORDER: fit_first_order(train, smoothing),
-        }
-        scores, _ = evaluate(pair, validation, warmup)
-        candidates.append((smoothing, pair, scores))
-    grey = min(candidates, key=lambda c: c[2][GREY_BOX].rmse)
-    lag = min(candidates, key=lambda c: c[2][FIRST_ORDER].rmse)
-    say(f"baselines: filter {grey[0]:g} s (grey box), {lag[0]:g} s (first-order lag)")
+    fits = [_fit_baselines(train, validation, warmup, s) for s in SMOOTHING_S]
+    grey = min(fits, key=lambda fit: fit.metrics[GREY_BOX].rmse)
+    lag = min(fits, key=lambda fit: fit.metrics[FIRST_ORDER].rmse)
+    progress(
+        f"baselines: filter {grey.smoothing_s:g} s (grey box), "
+        f"{lag.smoothing_s:g} s (first-order lag)"
+    )
     result = Identification(
         training,
-        grey[1][GREY_BOX],
-        lag[1][FIRST_ORDER],
-        grey[0],
+        grey.grey_box,
+        lag.first_order,
+        grey.smoothing_s,
         validation,
         {},
         noise_floor(validation),
@@ -95,19 +107,21 @@ def lstm_wins(metrics: dict[str, Metrics]) -> bool:
     return all(metrics[LSTM].mae < m.mae and metrics[LSTM].rmse < m.rmse for m in others)
 
 
-def fit_logs(paths: list[Path], out: Path, config: JetIdentConfig) -> dict[str, Any]:
-    """Fit the LSTM and the baselines to the bench logs at `paths`, print the comparison and
-    write OUT/model.npz, config.toml, report.json, report.txt, history.csv (and
-    validation.png with matplotlib); returns the report."""
+def fit_logs(
+    paths: list[Path], out: Path, config: JetIdentConfig, *, progress: Progress = silent
+) -> dict[str, Any]:
+    """Fit the LSTM and the baselines to the bench logs at `paths`, report the training and the
+    comparison to `progress` and write OUT/model.npz, config.toml, report.json, report.txt,
+    history.csv (and validation.png with matplotlib); returns the report."""
     warmup = config.train.warmup
     out = check_out(Path(out), OUTPUTS, JetIdentError)  # before the long part, like the logs
     logs = [read_log(path) for path in paths]
     names = [log.name for log in logs]
-    print(
+    progress(
         f"{len(logs)} log(s): "
         + ", ".join(f"{n} ({g.duration:.0f} s)" for n, g in zip(names, logs, strict=True))
     )
-    result = identify(logs, config, lambda line: print(line, flush=True))
+    result = identify(logs, config, progress)
     table = report_table(result.metrics, result.floor)
     report: dict[str, Any] = {
         "logs": [_shown(Path(p), out) for p in paths],
@@ -147,13 +161,16 @@ def fit_logs(paths: list[Path], out: Path, config: JetIdentConfig) -> dict[str, 
         for h in result.training.history
     ]
     write_text_atomic(out / "history.csv", "\n".join(rows) + "\n")
-    print(f"\n{title}")
-    print(table)
-    print(f"LSTM beats both baselines: {'yes' if report['lstm_beats_baselines'] else 'NO'}")
-    print(f"selected for the simulator (validation RMSE): {report['selected']}")
-    if plot_models(out / "validation.png", result.validation[0], result.models(), warmup):
-        print(f"wrote {out / 'validation.png'}")
-    print(f"wrote {out}/model.npz, config.toml, report.json, report.txt, history.csv")
+    progress(f"\n{title}")
+    progress(table)
+    progress(f"LSTM beats both baselines: {'yes' if report['lstm_beats_baselines'] else 'NO'}")
+    progress(f"selected for the simulator (validation RMSE): {report['selected']}")
+    try:
+        plot_models(out / "validation.png", result.validation[0], result.models(), warmup)
+        progress(f"wrote {out / 'validation.png'}")
+    except JetIdentError as exc:  # no matplotlib
+        progress(f"plot skipped: {exc}")
+    progress(f"wrote {out}/model.npz, config.toml, report.json, report.txt, history.csv")
     return report
 
 

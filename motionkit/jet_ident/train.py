@@ -13,7 +13,7 @@ of the time left each); the one best on validation is kept.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from functools import partial
 from typing import Any
@@ -29,6 +29,7 @@ from motionkit.jet_ident.benchlog import BenchLog
 from motionkit.jet_ident.config import ModelConfig, TrainConfig
 from motionkit.jet_ident.model import Normalisation, first_order_terms, init_variables, rollout
 from motionkit.jet_ident.step import LSTMThrust, free_run_jit
+from motionkit.progress import Progress, silent
 
 Segment = tuple[np.ndarray, np.ndarray]  # (thrust [N], throttle [%]) of consecutive samples
 PRIOR_SMOOTHING_S = 0.5  # the derivative filter of the priors' least squares
@@ -46,6 +47,27 @@ class TrainResult:
     mae: float = float("nan")  # its validation free-run MAE and RMSE [N]
     rmse: float = float("nan")
     scores: dict[str, tuple[float, float]] = field(default_factory=dict)  # per prior tried
+
+
+@dataclass(frozen=True)
+class PriorStart:
+    """Where a prior's training starts: its least-squares coefficients (None: no prior), its
+    dead time [samples] and the validation RMSE [N] of its free run."""
+
+    coeffs: np.ndarray | None = None
+    delay: int = 0
+    rmse: float = float("inf")
+
+
+@dataclass(frozen=True)
+class Best:
+    """The best model of a training run so far: its variables, the step it came at and its
+    validation free-run MAE and RMSE [N]."""
+
+    variables: Any
+    step: int
+    mae: float
+    rmse: float
 
 
 def common_dt(logs: Sequence[BenchLog]) -> float:
@@ -113,7 +135,7 @@ def late(throttle: np.ndarray, delay: int) -> np.ndarray:
     return np.concatenate([np.full(delay, throttle[0]), throttle[: len(throttle) - delay]])
 
 
-def silent(coeffs: np.ndarray, norm: Normalisation, dt: float) -> LSTMThrust:
+def prior_only(coeffs: np.ndarray, norm: Normalisation, dt: float) -> LSTMThrust:
     """The prior alone: an LSTM whose output is zero."""
     zero = jnp.zeros
     return LSTMThrust(zero((2, 4)), zero((1, 4)), zero(4), zero(1), zero(()), norm, dt, coeffs)
@@ -126,27 +148,26 @@ def prior_start(
     norm: Normalisation,
     warmup: int,
     max_delay: int,
-) -> tuple[np.ndarray | None, int]:
-    """The prior's least-squares coefficients and dead time [samples]: of 0..max_delay, the one
-    whose prior free-runs best on the validation parts."""
+) -> PriorStart:
+    """The prior's least-squares coefficients and dead time: of 0..max_delay, the one whose
+    prior free-runs best on the validation parts (the first of equals)."""
     if kind == "none":
-        return None, 0
-    best: tuple[float, np.ndarray | None, int] = (np.inf, None, 0)
+        return PriorStart()
+    starts = []
     for delay in range(max_delay + 1):
         shifted = [replace(p, throttle=late(p.throttle, delay)) for p in train]
         coeffs = prior_coeffs(kind, shifted, norm)
         checks = [(p.thrust, late(p.throttle, delay)) for p in valid]
-        _, rmse = validate(silent(coeffs, norm, train[0].dt), checks, warmup)
-        if best[1] is None or rmse < best[0]:
-            best = (rmse, coeffs, delay)
-    return best[1], best[2]
+        _, rmse = validate(prior_only(coeffs, norm, train[0].dt), checks, warmup)
+        starts.append(PriorStart(coeffs, delay, rmse))
+    return min(starts, key=lambda start: start.rmse)
 
 
 def train_lstm(
     logs: Sequence[BenchLog],
     model: ModelConfig,
     config: TrainConfig,
-    progress: Callable[[str], None] | None = None,
+    progress: Progress = silent,
 ) -> TrainResult:
     """Fit the LSTM to `logs` on each prior of `model.priors` in turn and keep the best on
     validation; `progress` receives one line per validation."""
@@ -168,20 +189,17 @@ def train_lstm(
     max_delay = round(model.max_delay_s / dt)
     runs = []
     for i, kind in enumerate(model.priors):
-        coeffs, delay = prior_start(kind, train, valid, norm, config.warmup, max_delay)
-        segments = [(p.thrust, late(p.throttle, delay)) for p in train]
+        prior = prior_start(kind, train, valid, norm, config.warmup, max_delay)
+        segments = [(p.thrust, late(p.throttle, prior.delay)) for p in train]
         left = config.max_minutes - (time.perf_counter() - start) / 60
         minutes = left / (len(model.priors) - i)
-        run = _train(
-            segments, checks, norm, dt, (coeffs, delay), model.hidden, config, minutes, progress
-        )
-        run.prior, run.delay = kind, delay
+        run = _train(segments, checks, norm, dt, prior, model.hidden, config, minutes, progress)
+        run.prior, run.delay = kind, prior.delay
         runs.append(run)
-        if progress:
-            progress(
-                f"{kind} prior, dead time {delay} samples: validation RMSE {run.rmse:.3f} N "
-                f"at step {run.best_step}"
-            )
+        progress(
+            f"{kind} prior, dead time {prior.delay} samples: validation RMSE {run.rmse:.3f} N "
+            f"at step {run.best_step}"
+        )
     best = min(runs, key=lambda r: r.rmse)
     best.scores = {r.prior: (r.mae, r.rmse) for r in runs}
     best.seconds = time.perf_counter() - start
@@ -193,18 +211,18 @@ def _train(
     valid: Sequence[Segment],
     norm: Normalisation,
     dt: float,
-    start_prior: tuple[np.ndarray | None, int],
+    start_prior: PriorStart,
     hidden: int,
     config: TrainConfig,
     minutes: float,
-    progress: Callable[[str], None] | None,
+    progress: Progress,
 ) -> TrainResult:
     """Adam on free-run windows of `config.window` samples, then (with `long_window`) on
     windows of that length, from the best so far, as many samples per step. With a prior, these
     two phases run first on the prior alone (the LSTM silent), then again on both. Each phase
     stops early on its own; the time limit ends them all."""
     start = time.perf_counter()
-    prior, delay = start_prior
+    prior, delay = start_prior.coeffs, start_prior.delay
     warmup = config.warmup
     windows = [(config.window, config.batch)]
     long_window = min(config.long_window, min(len(t) for t, _ in train) - warmup)
@@ -223,7 +241,7 @@ def _train(
 
     variables = init_variables(hidden, config.seed, prior)
     mae, rmse = score(variables)
-    best = (rmse, variables, 0, mae)
+    best = Best(variables, 0, mae, rmse)
     history: list[dict[str, float]] = [
         {"step": 0, "loss": float("nan"), "val_mae": mae, "val_rmse": rmse, "seconds": 0.0}
     ]
@@ -243,7 +261,7 @@ def _train(
     step, stopped = 0, ""
     for window, batch, prior_alone in phases:  # each from the best so far, a fresh optimiser
         draw = WindowSampler(train, warmup + window, config.seed + step)
-        variables = best[1]
+        variables = best.variables
         opt_state = optimizer.init(variables)
         losses: list[float] = []
         waited, first, stopped = 0, step + 1, "max steps"
@@ -257,17 +275,16 @@ def _train(
             row = {"step": step, "loss": float(np.mean(losses)), "val_mae": mae}
             history.append({**row, "val_rmse": rmse, "seconds": elapsed})
             losses = []
-            if rmse < best[0]:
-                best, waited = (rmse, variables, step, mae), 0
+            if rmse < best.rmse:
+                best, waited = Best(variables, step, mae, rmse), 0
             else:
                 waited += 1
-            if progress:
-                mark = "*" if best[2] == step else " "
-                progress(
-                    f"step {step:5d}  window {window}{' (prior alone)' * prior_alone}  "
-                    f"loss {row['loss']:.5f}  validation MAE "
-                    f"{mae:6.3f} N  RMSE {rmse:6.3f} N {mark} {elapsed:5.0f} s"
-                )
+            mark = "*" if best.step == step else " "
+            progress(
+                f"step {step:5d}  window {window}{' (prior alone)' * prior_alone}  "
+                f"loss {row['loss']:.5f}  validation MAE "
+                f"{mae:6.3f} N  RMSE {rmse:6.3f} N {mark} {elapsed:5.0f} s"
+            )
             if waited >= config.patience:
                 stopped = "early stop"
                 break
@@ -276,9 +293,9 @@ def _train(
                 break
         if stopped == "time limit":
             break
-    params = LSTMThrust.from_variables(best[1], norm, dt, delay)
+    params = LSTMThrust.from_variables(best.variables, norm, dt, delay)
     seconds = time.perf_counter() - start
-    return TrainResult(params, best[2], stopped, seconds, history, mae=best[3], rmse=best[0])
+    return TrainResult(params, best.step, stopped, seconds, history, mae=best.mae, rmse=best.rmse)
 
 
 class WindowSampler:

@@ -9,7 +9,7 @@ input hash.
     [(o.stage, o.status, o.made) for o in outcomes]       # each an Outcome: 'ran' or 'cached'
 
 The stages (STAGE_NAMES: retarget, trajopt, jet_ident, datasets, train) need the [ik],
-[trajopt] and [train] extras.
+[trajopt] and [train] extras. A run prints nothing; `progress=print` shows the command's lines.
 """
 
 from motionkit.pipeline.cache import Outcome

@@ -7,6 +7,7 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
+from motionkit.cli import echo
 from motionkit.errors import PipelineError
 from motionkit.executors import cluster_address
 from motionkit.extras import require
@@ -113,6 +114,7 @@ def _run(args: argparse.Namespace) -> int:
         fetch=args.fetch,
         until=args.until,
         cluster=args.cluster,
+        progress=echo,
     )
     if args.until and args.until != "train":
         return 0

@@ -12,6 +12,7 @@ from motionkit.outputs import claim_out, write_text_atomic
 from motionkit.pipeline.cache import STAGING, Outcome
 from motionkit.pipeline.config import PipelineConfig
 from motionkit.pipeline.stages import STAGE_FOLDERS, STAGES, Context, DryRun
+from motionkit.progress import Progress, silent
 from motionkit.robot import Robot
 
 STAGE_NAMES = tuple(name for name, _ in STAGES)
@@ -30,13 +31,16 @@ def run_pipeline(
     fetch: bool = False,
     until: str | None = None,
     cluster: str | None = None,
+    progress: Progress = silent,
 ) -> list[Outcome]:
     """Run every stage up to `until` (default: all) into its folder of `out` for `robot` (the
     retarget clips and the trajopt library on the Ray cluster at `cluster`, if given);
-    PipelineError naming the stage when one fails (its previous output is kept)."""
+    PipelineError naming the stage when one fails (its previous output is kept). `progress`
+    receives the stages' lines and the table of what was made."""
     if until is not None and until not in STAGE_NAMES:
         raise PipelineError(f"unknown stage '{until}'; the stages: {', '.join(STAGE_NAMES)}")
-    ctx = Context(config, Path(out).resolve(), robot, mocap_dir, full, force, fetch, cluster)
+    ctx = Context(config, Path(out).resolve(), robot, mocap_dir, full, force, fetch, cluster,
+                  progress=progress)  # fmt: skip
     last = STAGE_NAMES.index(until or STAGE_NAMES[-1])
     dry = DryRun(config, ctx.out, robot, mocap_dir, full, force, fetch, cluster)
     for name, stage in STAGES[: last + 1]:  # every recipe and input checked before OUT is made
@@ -48,7 +52,7 @@ def run_pipeline(
     start = time.perf_counter()
     outcomes = []
     for number, (name, stage) in enumerate(STAGES[: last + 1], 1):
-        print(f"\n=== [{number}/{last + 1}] {name}", flush=True)
+        progress(f"\n=== [{number}/{last + 1}] {name}")
         tick = time.perf_counter()
         try:
             outcome = stage(ctx)
@@ -57,21 +61,23 @@ def run_pipeline(
             raise PipelineError(f"stage {name} failed after {seconds:.0f} s: {exc}") from exc
         outcomes.append(outcome)
         if outcome.status == "cached":
-            print(f"cached (key {outcome.key}): {outcome.made}")
+            progress(f"cached (key {outcome.key}): {outcome.made}")
         else:
-            print(f"=== {name} done in {outcome.seconds:.0f} s: {outcome.made}")
+            progress(f"=== {name} done in {outcome.seconds:.0f} s: {outcome.made}")
     total = time.perf_counter() - start
     summary = {"config": str(config.source), "out": str(ctx.out), "robot": robot.name,
                "robot_hash": robot.model_hash, "seconds": round(total, 1),
                "stages": [o.to_dict() for o in outcomes]}  # fmt: skip
     write_text_atomic(ctx.out / "pipeline_summary.json", json.dumps(summary, indent=2) + "\n")
-    _print_table(outcomes, total)
+    for line in _table(outcomes, total):
+        progress(line)
     return outcomes
 
 
-def _print_table(outcomes: list[Outcome], total: float) -> None:
-    print(f"\n{'stage':<10} {'status':<7} {'time':>7}  {'output':<34} made")
+def _table(outcomes: list[Outcome], total: float) -> list[str]:
+    """What each stage made, where and how long it took."""
+    lines = [f"\n{'stage':<10} {'status':<7} {'time':>7}  {'output':<34} made"]
     for o in outcomes:
         when = f"{o.seconds:.0f} s" if o.status == "ran" else "-"
-        print(f"{o.stage:<10} {o.status:<7} {when:>7}  {o.output:<34} {o.made}")
-    print(f"total {total:.0f} s")
+        lines.append(f"{o.stage:<10} {o.status:<7} {when:>7}  {o.output:<34} {o.made}")
+    return [*lines, f"total {total:.0f} s"]

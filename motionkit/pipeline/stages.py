@@ -15,6 +15,7 @@ from motionkit.errors import PipelineError
 from motionkit.outputs import write_text_atomic
 from motionkit.pipeline.cache import Outcome, run_cached
 from motionkit.pipeline.config import PipelineConfig
+from motionkit.progress import Progress, silent
 from motionkit.robot import Robot
 
 JAX = ("jax", "jaxlib", "flax", "optax")
@@ -37,6 +38,7 @@ class Context:
     fetch: bool = False  # retarget the fetch recipe's CMU clips (downloaded) instead
     cluster: str | None = None  # a Ray cluster for the retarget clips and the trajopt library
     keys: dict[str, str] = field(default_factory=dict)  # stage -> key, as the stages run
+    progress: Progress = silent  # receives the stages' lines
 
     @property
     def records(self) -> Path:
@@ -99,7 +101,9 @@ def retarget(ctx: Context) -> Outcome:
 
     def work(folder: Path) -> str:
         jobs = ctx.config.retarget.jobs or os.cpu_count() or 1
-        results = run_retarget(clips, folder, config, jobs, ctx.robot, ctx.cluster)
+        results = run_retarget(
+            clips, folder, config, jobs, ctx.robot, ctx.cluster, progress=ctx.progress
+        )
         failed = [r for r in results if r.output is None]
         if failed:
             raise PipelineError(
@@ -136,23 +140,25 @@ def trajopt(ctx: Context) -> Outcome:
     def work(folder: Path) -> str:
         solve_s = 0.0
         for i, (name, config) in enumerate(configs.items(), 1):
-            print(f"flight {i}/{len(configs)}: {name} ({config.scenario.knots} knots)", flush=True)
-            metrics = solve_clip(config, folder, name, ctx.robot, stage.replay)
-            print(summary_line(name, metrics), flush=True)
+            ctx.progress(f"flight {i}/{len(configs)}: {name} ({config.scenario.knots} knots)")
+            metrics = solve_clip(
+                config, folder, name, ctx.robot, stage.replay, progress=ctx.progress
+            )
+            ctx.progress(summary_line(name, metrics))
             solve_s += metrics["solve_s"]
         made = [f"{len(configs)} flight(s) ({', '.join(configs)})"] if configs else []
         if library is not None:
             jobs = stage.jobs or os.cpu_count() or 1
             outcomes = solve_library(library, folder, ctx.robot, jobs, stage.replay, quiet=True,
-                                     cluster=ctx.cluster)  # fmt: skip
-            failed = [f"{name}: {text}" for name, ok, text, _ in outcomes if not ok]
+                                     cluster=ctx.cluster, progress=ctx.progress)  # fmt: skip
+            failed = [f"{o.name}: {o.text}" for o in outcomes if not o.solved]
             if failed:
                 raise PipelineError(
                     f"trajopt: {len(failed)} of {len(outcomes)} library clips failed: "
                     + "; ".join(failed)
                 )
-            airborne = sum(figures["airborne_s"] for *_, figures in outcomes)
-            solve_s += sum(figures["solve_s"] for *_, figures in outcomes)
+            airborne = sum(o.figures["airborne_s"] for o in outcomes)
+            solve_s += sum(o.figures["solve_s"] for o in outcomes)
             made.append(f"{len(outcomes)} library clips ({airborne:.0f} s airborne)")
         return f"{' and '.join(made)}, IPOPT {solve_s:.0f} s, checked"
 
@@ -174,8 +180,8 @@ def jet_ident(ctx: Context) -> Outcome:
         for seed in config.bench.train_seeds:
             logs.append(folder / "logs" / f"p250_{seed}.csv")
             write_log(logs[-1], synthetic_run(config.bench, seed).log)
-            print(f"simulated bench log {logs[-1].name}", flush=True)
-        report = fit_logs(logs, folder, config)
+            ctx.progress(f"simulated bench log {logs[-1].name}")
+        report = fit_logs(logs, folder, config, progress=ctx.progress)
         lstm = report["metrics"][LSTM]
         return (
             f"LSTM thrust model from {len(logs)} bench logs: free-run MAE {lstm['mae']:.2f} N, "
@@ -214,7 +220,8 @@ def datasets(ctx: Context) -> Outcome:
                  "duration_s": round(clip.duration, 3), "rate_hz": round(clip.rate, 3),
                  "physics": {k: physics.get(k) for k in PHYSICS_FIGURES}}
             )  # fmt: skip
-        print_physics(rows)
+        for line in physics_lines(rows):
+            ctx.progress(line)
         seconds: dict[str, float] = {}
         for row in rows:
             seconds[row["kind"]] = seconds.get(row["kind"], 0.0) + row["duration_s"]
@@ -235,24 +242,25 @@ PHYSICS_FIGURES = (
 )
 
 
-def print_physics(rows: list[dict]) -> None:
+def physics_lines(rows: list[dict]) -> list[str]:
     """One line per clip: the physics figures its generator stored (- where it has none)."""
-    print(f"{'clip':<34} {'kind':<8} {'seconds':>7} {'CoP in 1':>9} {'tau ok':>7} {'mu ok':>6} "
-          f"{'resid p95':>10}")  # fmt: skip
+    lines = [f"{'clip':<34} {'kind':<8} {'seconds':>7} {'CoP in 1':>9} {'tau ok':>7} "
+             f"{'mu ok':>6} {'resid p95':>10}"]  # fmt: skip
     for row in rows:
         cells = [
             "-" if row["physics"][k] is None else f"{row['physics'][k]:.3f}"
             for k in PHYSICS_FIGURES
         ]
-        print(
+        lines.append(
             f"{Path(row['clip']).stem[:33]:<34} {row['kind']:<8} {row['duration_s']:>7.2f} "
             f"{cells[0]:>9} {cells[1]:>7} {cells[2]:>6} {cells[3]:>10}"
         )
-    print(
+    lines.append(
         "CoP in 1: single-support frames whose needed centre of pressure is in the stance sole; "
         "tau ok: frames within the effort limits; mu ok: within the friction pyramid; resid p95: "
         "the base force contacts and thrust cannot explain [body weights] (flights: at the knots)"
     )
+    return lines
 
 
 def train(ctx: Context) -> Outcome:
@@ -288,7 +296,7 @@ def train(ctx: Context) -> Outcome:
         from motionkit.train.runner import train as train_policy
 
         enable_compile_cache()
-        summary = train_policy(config, folder, ctx.robot, progress=lambda s: print(s, flush=True))
+        summary = train_policy(config, folder, ctx.robot, progress=ctx.progress)
         last = summary["train"]
         return (
             f"{summary['iterations']} iterations, {summary['env_steps']:.0f} env steps; "

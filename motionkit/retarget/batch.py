@@ -5,10 +5,9 @@ from __future__ import annotations
 
 import json
 import re
-import sys
 import time as clock
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -17,22 +16,14 @@ from motionkit.digests import code_digest, digest, file_digest, versions
 from motionkit.errors import MotionkitError, RetargetError
 from motionkit.executors import Executor, open_executor
 from motionkit.outputs import claimed_out, inside, up_to_date, write_files, write_text_atomic
-from motionkit.progress import LineProgress
+from motionkit.progress import LineProgress, Progress, silent
 from motionkit.retarget.config import RetargetConfig
+from motionkit.retarget.metrics import QUALITY, Quality
 from motionkit.robot import Robot, ironcub
 
 MOCAP_SUFFIXES = (".bvh", ".amc")
 SUMMARY = "retarget_summary.json"
 _CMU_NAME = re.compile(r"(?:^|[^0-9])(\d{1,3}_\d{1,2})(?:[^0-9]|$)")
-
-# What a clean retargeted walk shows (the issue's acceptance figures); the summary flags the rest.
-QUALITY = {
-    "foot_slide_p95_m_s": 0.01,
-    "penetration_max_m": 0.002,
-    "joint_position_violations": 0,
-    "joint_velocity_violations": 0,
-    "feet_error_mean_m": 0.03,
-}
 
 
 @dataclass(frozen=True)
@@ -56,13 +47,16 @@ class ClipResult:
     frames: int = 0
     seconds: float = 0.0  # wall time of the whole clip, read to write
     stages: dict[str, float] = field(default_factory=dict)  # seconds per stage
-    metrics: dict[str, float | int | str] = field(default_factory=dict)
+    metrics: dict[str, Any] = field(default_factory=dict)  # all of them, as in its metadata
     error: str = ""
     resumed: bool = False  # kept from an earlier run (--resume): its output was up to date
 
-    def problems(self) -> list[str]:
-        """The quality figures beyond QUALITY (empty for a clean clip)."""
-        return [k for k, limit in QUALITY.items() if float(self.metrics.get(k, 0)) > limit]
+    @property
+    def quality(self) -> Quality:
+        return Quality.of(self.metrics)
+
+
+Report = Callable[[ClipResult, int, int], None]  # a clip's result, the clips done, their total
 
 
 def resolve_inputs(
@@ -203,25 +197,18 @@ def retarget_all(
     clips: list[ClipInput],
     out: Path,
     config: RetargetConfig,
-    jobs: int = 1,
-    robot: Robot | None = None,
-    report: Callable[[ClipResult, int, int], None] | None = None,
+    executor: Executor,
+    robot: Robot,
+    report: Report | None = None,
     *,
-    cluster: str | None = None,
     resume: bool = False,
-    executor: Executor | None = None,
+    frames: bool = False,
 ) -> list[ClipResult]:
-    """Retarget every clip for `robot` (default iRonCub) into `out`: in `jobs` processes when
-    > 1, on the Ray cluster at `cluster`, or on `executor`; the workers return the clips and
-    this process writes them. With `resume`, a clip whose output is up to date (`clip_key`) is
-    kept. Results in input order."""
-    robot = robot or ironcub()
-    _check_names(clips)
-    if executor is None:
-        inline = jobs <= 1 or len(clips) == 1
-        with open_executor(min(jobs, len(clips)), cluster, RetargetError, inline) as executor:
-            return retarget_all(clips, out, config, jobs, robot, report, resume=resume,
-                                executor=executor)  # fmt: skip
+    """Retarget every clip (their names distinct: `check_names`) for `robot` into `out` on
+    `executor` (motionkit.executors.open_executor); the workers return the clips and this
+    process writes them. `report` receives each result as it comes; with `frames`, a clip
+    retargeted in this process draws its frames done on stderr (motionkit.progress). With
+    `resume`, a clip whose output is up to date (`clip_key`) is kept. Results in input order."""
     keys = [clip_key(clip, config, robot) for clip in clips]
     results: dict[int, ClipResult] = {}
 
@@ -237,7 +224,7 @@ def retarget_all(
             todo.append(i)
         else:
             finish(i, kept)
-    shared = (config, robot, executor.in_process and report is not None)
+    shared = (config, robot, frames and executor.in_process)
     names = [clips[i].name for i in todo]
     for done in executor.run(_retarget_task, [clips[i] for i in todo], names, shared):
         i = todo[done.index]
@@ -278,7 +265,8 @@ def _kept(clip: ClipInput, out: Path, key: str) -> ClipResult | None:
                       metrics=dict(metadata.metrics), resumed=True)  # fmt: skip
 
 
-def _check_names(clips: list[ClipInput]) -> None:
+def check_names(clips: list[ClipInput]) -> None:
+    """RetargetError unless there are clips and no two write the same file."""
     if not clips:
         raise RetargetError("nothing to retarget: give files, folders or CMU clip ids")
     names = [c.name for c in clips]
@@ -308,76 +296,92 @@ def run_retarget(
     robot: Robot | None = None,
     cluster: str | None = None,
     resume: bool = False,
+    *,
+    progress: Progress = silent,
+    report: Report | None = None,
+    frames: bool = False,
 ) -> list[ClipResult]:
     """Retarget `clips` into `out` for `robot` (default iRonCub; in `jobs` processes, or on the
-    Ray cluster at `cluster`) with progress lines, the quality table and
-    OUT/retarget_summary.json; returns every clip's result (failed ones have no output). With
-    `resume`, clips whose outputs are up to date are kept. A folder holding files of those
-    names that motionkit did not write is refused; an unreachable cluster writes nothing."""
-    _check_names(clips)
+    Ray cluster at `cluster`) and write OUT/retarget_summary.json; returns every clip's result
+    (failed ones have no output). `progress` receives the lines of `motionkit retarget`: the
+    batch's, each clip's as it comes (`clip_line`; to `report` instead, if given), the quality
+    table. With `resume`, clips whose outputs are up to date are kept; `frames`: see
+    `retarget_all`. A folder holding files of those names that motionkit did not write is
+    refused; an unreachable cluster writes nothing."""
+    check_names(clips)
     robot = robot or ironcub()
     unused = sorted(set(config.trim) - {c.name for c in clips})
     if unused:
-        print(f"note: trim names no clip among the inputs: {', '.join(unused)}")
+        progress(f"note: trim names no clip among the inputs: {', '.join(unused)}")
     names = [f"{c.name}.mcap" for c in clips] + [SUMMARY]
+    report = report or (lambda result, done, total: progress(clip_line(result, done, total)))
     inline = jobs <= 1 or len(clips) == 1
     with open_executor(min(jobs, len(clips)), cluster, RetargetError, inline) as executor:
-        print(f"retargeting {len(clips)} clip(s) into {out} with {executor.where}", flush=True)
+        progress(f"retargeting {len(clips)} clip(s) into {out} with {executor.where}")
         with claimed_out(out, names, RetargetError):
-            results = retarget_all(clips, out, config, jobs, robot, report=_report_clip,
-                                   resume=resume, executor=executor)  # fmt: skip
-            done = [r for r in results if r.output is not None]
-            if done:
+            results = retarget_all(clips, out, config, executor, robot, report, resume=resume,
+                                   frames=frames)  # fmt: skip
+            if any(r.output is not None for r in results):
                 summary = {"config": config.to_dict(), "clips": [_result_json(r) for r in results]}
                 write_text_atomic(out / SUMMARY, json.dumps(summary, indent=2))
-    _print_table(results)
-    kept = sum(r.resumed for r in results)
-    if kept:
-        print(f"{kept} of {len(results)} clip(s) up to date and kept (--resume)")
-    failed = len(results) - len(done)
-    if failed:
-        print(f"{failed} of {len(results)} clip(s) failed; nothing written for them")
+    for line in summary_lines(results):
+        progress(line)
     return results
 
 
-def _report_clip(result: ClipResult, done: int, total: int) -> None:
+def clip_line(result: ClipResult, done: int, total: int) -> str:
+    """The line of a clip as it comes (`done` of `total`): failed, kept or retargeted."""
+    clip = f"[{done}/{total}] {result.name}"
     if result.output is None:
-        print(f"[{done}/{total}] {result.name}: failed: {result.error}", file=sys.stderr)
-    elif result.resumed:
-        print(f"[{done}/{total}] {result.name}: up to date, kept -> {result.output}", flush=True)
-    else:
-        rate = result.frames / result.seconds if result.seconds else 0.0
-        print(
-            f"[{done}/{total}] {result.name}: {result.frames} frames in {result.seconds:.2f} s "
-            f"({rate:.0f} frames/s) -> {result.output}",
-            flush=True,
-        )
+        return f"{clip}: failed: {result.error}"
+    if result.resumed:
+        return f"{clip}: up to date, kept -> {result.output}"
+    rate = result.frames / result.seconds if result.seconds else 0.0
+    return (
+        f"{clip}: {result.frames} frames in {result.seconds:.2f} s ({rate:.0f} frames/s) "
+        f"-> {result.output}"
+    )
 
 
-def _print_table(results: list[ClipResult]) -> None:
+def summary_lines(results: list[ClipResult]) -> list[str]:
+    """The quality table of a batch, then what it kept (--resume) and what failed."""
+    lines = quality_table(results)
+    kept = sum(r.resumed for r in results)
+    if kept:
+        lines.append(f"{kept} of {len(results)} clip(s) up to date and kept (--resume)")
+    failed = sum(r.output is None for r in results)
+    if failed:
+        lines.append(f"{failed} of {len(results)} clip(s) failed; nothing written for them")
+    return lines
+
+
+def quality_table(results: list[ClipResult]) -> list[str]:
+    """A line per clip of its quality figures, flagged where beyond those of a clean walk."""
     header = (
         f"{'clip':<18} {'frames':>6} {'slide p95':>9} {'source':>7} {'sink':>6} {'limits':>6} "
         f"{'feet':>6} {'knees':>6} {'clear':>7}  check"
     )
-    print(f"\n{header}\n{'':<18} {'':>6} {'[cm/s]':>9} {'[cm/s]':>7} {'[mm]':>6} {'':>6} "
-          f"{'[cm]':>6} {'[cm]':>6} {'[cm]':>7}")  # fmt: skip
+    lines = [f"\n{header}\n{'':<18} {'':>6} {'[cm/s]':>9} {'[cm/s]':>7} {'[mm]':>6} {'':>6} "
+             f"{'[cm]':>6} {'[cm]':>6} {'[cm]':>7}"]  # fmt: skip
     for r in results:
         if r.output is None:
-            print(f"{r.name:<18} failed: {r.error}")
+            lines.append(f"{r.name:<18} failed: {r.error}")
             continue
-        m = r.metrics
-        violations = int(m["joint_position_violations"]) + int(m["joint_velocity_violations"])
-        problems = r.problems()
-        print(
-            f"{r.name:<18} {r.frames:>6} {100 * float(m['foot_slide_p95_m_s']):>9.2f} "
-            f"{100 * float(m['source_slide_p95_m_s']):>7.1f} "
-            f"{1000 * float(m['penetration_max_m']):>6.2f} {violations:>6d} "
-            f"{100 * float(m['feet_error_mean_m']):>6.2f} "
-            f"{100 * float(m['knees_error_mean_m']):>6.2f} "
-            f"{100 * float(m['closest_approach_m']):>7.1f}  "
+        q = r.quality
+        violations = q.joint_position_violations + q.joint_velocity_violations
+        problems = q.beyond()
+        lines.append(
+            f"{r.name:<18} {r.frames:>6} {100 * q.foot_slide_p95_m_s:>9.2f} "
+            f"{100 * q.source_slide_p95_m_s:>7.1f} "
+            f"{1000 * q.penetration_max_m:>6.2f} {violations:>6d} "
+            f"{100 * q.feet_error_mean_m:>6.2f} "
+            f"{100 * q.knees_error_mean_m:>6.2f} "
+            f"{100 * q.closest_approach_m:>7.1f}  "
             f"{'ok' if not problems else 'beyond: ' + ', '.join(problems)}"
         )
-    print(f"(clean: {', '.join(f'{k} <= {v}' for k, v in QUALITY.items())})")
+    clean = ", ".join(f"{name} <= {limit}" for name, limit in asdict(QUALITY).items())
+    lines.append(f"(clean: {clean})")
+    return lines
 
 
 def _result_json(result: ClipResult) -> dict[str, Any]:

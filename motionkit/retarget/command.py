@@ -4,16 +4,18 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
+from motionkit.cli import echo
 from motionkit.errors import RetargetError
 from motionkit.executors import add_batch_options
 from motionkit.extras import require
 from motionkit.outputs import check_out
 from motionkit.recipes import argument
-from motionkit.retarget.batch import resolve_inputs, run_retarget
+from motionkit.retarget.batch import ClipResult, clip_line, resolve_inputs, run_retarget
 from motionkit.retarget.config import RetargetConfig
 from motionkit.robot import load_robot
 
@@ -111,5 +113,12 @@ def _retarget(args: argparse.Namespace) -> int:
     recipe = [str(base / c) if (base / c).exists() else c for c in config.clips]
     clips = resolve_inputs([*recipe, *args.inputs])
     robot = load_robot(args.urdf, args.spec)
-    results = run_retarget(clips, args.out, config, jobs, robot, args.cluster, args.resume)
+    results = run_retarget(clips, args.out, config, jobs, robot, args.cluster, args.resume,
+                           progress=echo, report=_report_clip, frames=True)  # fmt: skip
     return 1 if any(r.output is None for r in results) else 0
+
+
+def _report_clip(result: ClipResult, done: int, total: int) -> None:
+    """A clip's line as it comes: on stderr when it failed."""
+    stream = sys.stderr if result.output is None else sys.stdout
+    print(clip_line(result, done, total), file=stream, flush=True)

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, fields
 from itertools import combinations
+from typing import Any
 
 import numpy as np
 
@@ -14,6 +17,46 @@ from motionkit.robot.geometry import Array
 from motionkit.robot.kinematics import frame_poses
 
 PENETRATION_LIMIT = 0.005  # m: a frame with a sole corner deeper than this counts as sinking
+
+
+@dataclass(frozen=True)
+class CleanWalk:
+    """The figures of a clean retargeted walk; a batch's summary flags a clip beyond one."""
+
+    foot_slide_p95_m_s: float = 0.01
+    penetration_max_m: float = 0.002
+    joint_position_violations: int = 0
+    joint_velocity_violations: int = 0
+    feet_error_mean_m: float = 0.03
+
+
+QUALITY = CleanWalk()
+
+
+@dataclass(frozen=True)
+class Quality:
+    """The figures of a retargeted clip that a batch's summary shows."""
+
+    foot_slide_p95_m_s: float = 0.0
+    source_slide_p95_m_s: float = 0.0
+    penetration_max_m: float = 0.0
+    joint_position_violations: int = 0
+    joint_velocity_violations: int = 0
+    feet_error_mean_m: float = 0.0
+    knees_error_mean_m: float = 0.0
+    closest_approach_m: float = 0.0
+    closest_jet_or_arm_m: float = 0.0
+
+    @classmethod
+    def of(cls, metrics: Mapping[str, Any]) -> Quality:
+        """The figures of a clip's metrics (`compute_metrics`' names, in the clip's metadata; 0
+        where one is absent)."""
+        kinds = {f.name: type(f.default) for f in fields(cls)}
+        return cls(**{name: kind(metrics.get(name, 0)) for name, kind in kinds.items()})
+
+    def beyond(self, clean: CleanWalk = QUALITY) -> list[str]:
+        """The names of the figures above those of a clean walk (none for a clean clip)."""
+        return [name for name, limit in asdict(clean).items() if getattr(self, name) > limit]
 
 
 class Kinematics:

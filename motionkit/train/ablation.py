@@ -6,12 +6,12 @@ say how each setting got there (waypoints, airborne share, falls, speed)."""
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from motionkit.errors import TrainError
 from motionkit.outputs import atomic_output, claim_out, write_text_atomic
+from motionkit.progress import Progress, silent
 from motionkit.robot import Robot
 from motionkit.train.config import TrainConfig
 
@@ -40,7 +40,7 @@ def run_ablation(
     config: TrainConfig,
     out: Path,
     robot: Robot,
-    progress: Callable[[str], None] = print,
+    progress: Progress = silent,
 ) -> dict[str, Any]:
     """Train the four prior settings, then compare their final evaluations.
 

@@ -20,6 +20,7 @@ import jax
 
 from motionkit.errors import TrainError
 from motionkit.outputs import check_out, claim_out, write_json_atomic, write_text_atomic
+from motionkit.progress import Progress, silent
 from motionkit.robot import Robot
 from motionkit.train.amp import PriorData
 from motionkit.train.checkpoint import NAME, load_checkpoint, save_checkpoint
@@ -89,7 +90,7 @@ def train(
     robot: Robot,
     *,
     resume: bool = False,
-    progress: Callable[[str], None] = print,
+    progress: Progress = silent,
     stop: Callable[[dict[str, float]], bool] | None = None,
 ) -> dict[str, Any]:
     """Train (or resume) in `out`; returns the summary also written to OUT/summary.json.

@@ -6,10 +6,11 @@
     robot = load_robot("robot.urdf", "robot.toml")       # no arguments: iRonCub
     config = TrajoptConfig.from_toml("trajopt/takeoff.toml").with_scenario(target=(0, 0, 1.0))
     metrics = solve_clip(config, out, "takeoff", robot)  # solve, check, replay, write the clip
-    outcomes = solve_library("trajopt/library.toml", out, robot, jobs=2)
+    outcomes = solve_library("trajopt/library.toml", out, robot, jobs=2, progress=print)
     solution = Prepared(robot, config).solve()           # the knots alone, nothing written
 
-`solve_grid` solves one config for many targets; `read_library` lists a library's solves
+`solve_grid` solves one config for many targets; the runs print nothing unless given a
+`progress` callback (`print`: the solves' lines); `read_library` lists a library's solves
 (LibrarySolve), `summary_line` and `library_summary` are the lines `motionkit trajopt` prints;
 SCENARIOS names the scenarios. Configs, libraries and the runners import without the
 [trajopt] extra (CasADi); `Prepared`, `Solution` and `check_solution` import it on

@@ -12,6 +12,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from motionkit.cli import echo
 from motionkit.errors import TrajoptError
 from motionkit.executors import add_batch_options
 from motionkit.extras import require
@@ -115,7 +116,7 @@ def _run(args: argparse.Namespace) -> int | None:
         name = args.name or clip_stem(config)
         check_clips(args.out, [name])  # an --out it cannot write is exit 2, before the solve
         try:
-            metrics = solve_clip(config, args.out, name, robot, not args.no_replay)
+            metrics = solve_clip(config, args.out, name, robot, not args.no_replay, progress=echo)
         except TrajoptError as exc:
             print(f"motionkit: trajopt failed: {exc}", file=sys.stderr)
             return 1
@@ -128,8 +129,8 @@ def _run(args: argparse.Namespace) -> int | None:
         raise TrajoptError(f"--grid: expected comma-separated numbers ({exc})") from exc
     targets = list(itertools.product(*axes))
     outcomes = solve_grid(config, targets, args.out, robot, args.jobs, not args.no_replay,
-                          args.cluster, args.resume)  # fmt: skip
-    failed = sum(not ok for _, ok, _, _ in outcomes)
+                          args.cluster, args.resume, progress=echo)  # fmt: skip
+    failed = sum(not o.solved for o in outcomes)
     print(f"{len(targets) - failed} of {len(targets)} targets solved; clips in {args.out}")
     return 1 if failed else None
 
@@ -144,7 +145,7 @@ def _run_library(args: argparse.Namespace) -> int | None:
         raise TrajoptError(f"--library names its own scenarios and targets: drop {clashing}")
     robot = load_robot(args.urdf, args.spec)
     outcomes = solve_library(args.library, args.out, robot, args.jobs, not args.no_replay,
-                             args.quiet, args.cluster, args.resume)  # fmt: skip
+                             args.quiet, args.cluster, args.resume, progress=echo)  # fmt: skip
     print(library_summary(outcomes, clock.perf_counter() - start, args.jobs, args.cluster))
     print(f"clips in {args.out}")
-    return 1 if any(not ok for _, ok, _, _ in outcomes) else None
+    return 1 if any(not o.solved for o in outcomes) else None

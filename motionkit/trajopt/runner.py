@@ -7,8 +7,9 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-from collections.abc import Callable, Iterable, Iterator
-from dataclasses import replace
+import pickle
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -17,11 +18,10 @@ from motionkit.errors import MotionkitError, TrajoptError
 from motionkit.executors import THREAD_VARIABLES, open_executor
 from motionkit.extras import require
 from motionkit.outputs import check_out, claim_out, claimed_out, up_to_date, write_files
+from motionkit.progress import Progress, silent
 from motionkit.robot import Robot
 from motionkit.trajopt.config import TrajoptConfig
 
-Task = tuple[dict[str, Any], str, bool, Robot]  # config, clip name, replay, robot
-Outcome = tuple[str, bool, str, dict[str, float]]  # name, solved, summary or error, figures
 FIGURES = ("solve_s", "duration_s", "airborne_s")  # what a batch reports of each clip
 SUFFIXES = (".mcap", ".knots.npz", ".config.json")  # the files of one solve
 
@@ -29,6 +29,26 @@ SUFFIXES = (".mcap", ".knots.npz", ".config.json")  # the files of one solve
 def clip_files(names: Iterable[str]) -> list[str]:
     """The files the solves `names` write."""
     return [f"{name}{suffix}" for name in names for suffix in SUFFIXES]
+
+
+@dataclass(frozen=True)
+class Task:
+    """One solve of a batch, as it travels to a worker."""
+
+    config: dict[str, Any]  # TrajoptConfig.to_dict()
+    name: str  # the clip's file stem
+    replay: bool
+    robot: Robot
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What a batch reports of one solve."""
+
+    name: str
+    solved: bool
+    text: str  # its summary line, or why it failed
+    figures: dict[str, float]  # FIGURES of a solved clip
 
 
 def check_clips(out: Path, names: Iterable[str]) -> None:
@@ -49,13 +69,15 @@ def solve_clip(
     name: str,
     robot: Robot,
     replay: bool = True,
-    log: Callable[[str], None] | None = None,
+    *,
+    progress: Progress = silent,
 ) -> dict[str, Any]:
     """Solve, check and write one scenario for `robot` as OUT/NAME.mcap (+ .knots.npz,
-    .config.json); returns its metrics. TrajoptError (nothing written) when it fails."""
+    .config.json); returns its metrics. TrajoptError (nothing written) when it fails.
+    `progress` receives the solve's lines ("[NAME] homotopy ...")."""
     require("trajopt", "trajopt", TrajoptError)
     check_clips(out, [name])
-    metrics, files = solve_files(config, name, robot, replay, log)
+    metrics, files = solve_files(config, name, robot, replay, progress)
     folder = claim_out(Path(out), clip_files([name]), TrajoptError)
     write_files(folder, files)
     return metrics
@@ -66,7 +88,7 @@ def solve_files(
     name: str,
     robot: Robot,
     replay: bool = True,
-    log: Callable[[str], None] | None = None,
+    progress: Progress = silent,
 ) -> tuple[dict[str, Any], dict[str, bytes]]:
     """Solve and check one scenario: its metrics and its files (name -> bytes, in the order
     they are to be written); TrajoptError when it fails."""
@@ -74,8 +96,7 @@ def solve_files(
     from motionkit.trajopt.output import encode_outputs
     from motionkit.trajopt.solve import solve
 
-    log = log or (lambda line: print(f"[{name}] {line}", flush=True))
-    solution = solve(robot, config, log=log)
+    solution = solve(robot, config, log=lambda line: progress(f"[{name}] {line}"))
     metrics = solver_figures(solution) | check_solution(solution, robot) | motion_figures(solution)
     if replay:
         from motionkit.trajopt.replay import replay as run_replay
@@ -116,14 +137,16 @@ def solve_grid(
     replay: bool = True,
     cluster: str | None = None,
     resume: bool = False,
+    *,
+    progress: Progress = silent,
 ) -> list[Outcome]:
     """One solve of `config` per target, each clip named by `clip_stem`, in `jobs` processes
     (or on the Ray cluster at `cluster`); `resume` keeps the clips that are up to date."""
     tasks = []
     for target in targets:
         item = config.with_scenario(target=tuple(target))
-        tasks.append((item.to_dict(), clip_stem(item), replay, robot))
-    return solve_batch(tasks, [config], out, jobs, cluster, resume)
+        tasks.append(Task(item.to_dict(), clip_stem(item), replay, robot))
+    return solve_batch(tasks, [config], out, jobs, cluster, resume, progress=progress)
 
 
 def solve_library(
@@ -135,6 +158,8 @@ def solve_library(
     quiet: bool = False,
     cluster: str | None = None,
     resume: bool = False,
+    *,
+    progress: Progress = silent,
 ) -> list[Outcome]:
     """Solve, check and write every clip of a flight library for `robot` in `jobs` processes
     (or on the Ray cluster at `cluster`); a clip that fails is reported in its outcome and
@@ -146,11 +171,11 @@ def solve_library(
     if quiet:  # IPOPT is quiet already unless an entry asks for its log
         configs = [replace(c, solver=replace(c.solver, print_level=0)) for c in configs]
     tasks = [
-        (config.to_dict(), solve.name, replay, robot)
+        Task(config.to_dict(), solve.name, replay, robot)
         for solve, config in zip(solves, configs, strict=True)
     ]
-    print(f"{path}: {len(tasks)} clips from {len({s.entry for s in solves})} entries", flush=True)
-    return solve_batch(tasks, configs, out, jobs, cluster, resume)
+    progress(f"{path}: {len(tasks)} clips from {len({s.entry for s in solves})} entries")
+    return solve_batch(tasks, configs, out, jobs, cluster, resume, progress=progress)
 
 
 def solve_batch(
@@ -160,46 +185,50 @@ def solve_batch(
     jobs: int,
     cluster: str | None = None,
     resume: bool = False,
+    *,
+    progress: Progress = silent,
 ) -> list[Outcome]:
     """Solve the tasks in `jobs` worker processes (or on the Ray cluster at `cluster`),
-    printing each outcome as it comes; the workers return the files and this process writes
-    them. With several workers, the compiled derivatives of each distinct jet model in
-    `configs` are built here first, once, and handed to the workers (whose caches may be on
-    other machines). With `resume`, a clip whose files are up to date (`task_key`) is kept."""
+    reporting each outcome to `progress` as it comes (and, from the workers, the solves' lines
+    when `progress` can be pickled: a module-level function); the workers return the files and
+    this process writes them. With several workers, the compiled derivatives of each distinct
+    jet model in `configs` are built here first, once, and handed to the workers (whose caches
+    may be on other machines). With `resume`, a clip whose files are up to date (`task_key`) is
+    kept."""
     require("trajopt", "trajopt", TrajoptError)
     if not tasks:
         return []
     out = Path(out)
-    check_clips(out, [task[1] for task in tasks])  # before any work
+    names = [task.name for task in tasks]
+    check_clips(out, names)  # before any work
     keys = [task_key(task) for task in tasks]
     outcomes: dict[int, Outcome] = {}
     with (
         _single_threaded_workers(),
         open_executor(jobs, cluster, TrajoptError) as executor,
-        claimed_out(out, clip_files(task[1] for task in tasks), TrajoptError),
+        claimed_out(out, clip_files(names), TrajoptError),
     ):
         for i, task in enumerate(tasks):
-            kept = _kept(out, task[1], keys[i]) if resume else None
+            kept = _kept(out, task.name, keys[i]) if resume else None
             if kept is not None:
                 outcomes[i] = kept
-                print(kept[2], flush=True)
+                progress(kept.text)
         todo = [i for i in range(len(tasks)) if i not in outcomes]
-        kept = f"; {len(outcomes)} up to date, kept" if outcomes else ""
-        print(f"solving {len(todo)} clip(s) with {executor.where}{kept}", flush=True)
-        shared: dict[str, bytes] = {}
+        note = f"; {len(outcomes)} up to date, kept" if outcomes else ""
+        progress(f"solving {len(todo)} clip(s) with {executor.where}{note}")
+        libraries: dict[str, bytes] = {}
         if todo and (cluster or (len(todo) > 1 and executor.workers > 1)):
-            shared = _compile_once(configs, tasks[0][3])
-        names = [tasks[i][1] for i in todo]
-        for done in executor.run(_batch_task, [tasks[i] for i in todo], names, shared):
+            libraries = _compile_once(configs, tasks[0].robot, progress)
+        items, shared = [tasks[i] for i in todo], (libraries, _portable(progress))
+        for done in executor.run(_batch_task, items, [names[i] for i in todo], shared):
             i = todo[done.index]
             if done.value is None:
-                outcome: Outcome = (tasks[i][1], False, done.lost, {})
+                outcome = Outcome(tasks[i].name, False, done.lost, {})
             else:
                 outcome, files = done.value
                 if files:
                     write_files(out, files, keys[i])
-            name, ok, text, _ = outcome
-            print(text if ok else f"{name}: FAILED: {text}", flush=True)
+            progress(outcome.text if outcome.solved else f"{outcome.name}: FAILED: {outcome.text}")
             outcomes[i] = outcome
     return [outcomes[i] for i in range(len(tasks))]
 
@@ -207,13 +236,12 @@ def solve_batch(
 def task_key(task: Task) -> str:
     """The hash of everything a solve's files depend on (its config, name, replay, the robot,
     the code and the solver's libraries): files recorded with it are up to date."""
-    data, name, replay, robot = task
     return digest(
         "trajopt clip",
-        name,
-        data,
-        replay,
-        robot.model_hash,
+        task.name,
+        task.config,
+        task.replay,
+        task.robot.model_hash,
         code_digest(__name__),
         versions("casadi", "adam-robotics", "mujoco"),
     )
@@ -229,25 +257,26 @@ def _kept(out: Path, name: str, key: str) -> Outcome | None:
         figures = {k: float(metrics[k]) for k in FIGURES}
     except (OSError, ValueError, KeyError, TypeError):
         return None  # unreadable: solved again
-    return name, True, f"{text} (up to date, kept)", figures
+    return Outcome(name, True, f"{text} (up to date, kept)", figures)
 
 
 def library_summary(
     outcomes: list[Outcome], wall: float, jobs: int, cluster: str | None = None
 ) -> str:
     """A table of the clips (airborne, duration and IPOPT seconds) and the totals."""
-    solved = [(name, figures) for name, ok, _, figures in outcomes if ok]
-    width = max([len(name) for name, _ in solved] + [4])
+    solved = [o for o in outcomes if o.solved]
+    width = max([len(o.name) for o in solved] + [4])
     lines = [f"{'clip':<{width}}  airborne [s]  duration [s]  solve [s]"]
-    for name, f in solved:
+    for o in solved:
+        f = o.figures
         lines.append(
-            f"{name:<{width}}  {f['airborne_s']:12.2f}  {f['duration_s']:12.2f}  "
+            f"{o.name:<{width}}  {f['airborne_s']:12.2f}  {f['duration_s']:12.2f}  "
             f"{f['solve_s']:9.1f}"
         )
-    airborne = sum(f["airborne_s"] for _, f in solved)
-    solve_s = sum(f["solve_s"] for _, f in solved)
+    airborne = sum(o.figures["airborne_s"] for o in solved)
+    solve_s = sum(o.figures["solve_s"] for o in solved)
     per_clip = airborne / len(solved) if solved else 0.0
-    failed = [name for name, ok, _, _ in outcomes if not ok]
+    failed = [o.name for o in outcomes if not o.solved]
     lines.append(
         f"{len(solved)} of {len(outcomes)} clips solved; airborne {airborne:.1f} s in all "
         f"({per_clip:.2f} s per clip); IPOPT {solve_s:.0f} s in all; wall {wall:.0f} s "
@@ -258,20 +287,34 @@ def library_summary(
     return "\n".join(lines)
 
 
-def _batch_task(task: Task, libraries: dict[str, bytes]) -> tuple[Outcome, dict[str, bytes]]:
+def _batch_task(
+    task: Task, shared: tuple[dict[str, bytes], Progress]
+) -> tuple[Outcome, dict[str, bytes]]:
     """One solve in a worker: its outcome and its files (none when it failed)."""
     from motionkit.trajopt.compiled import install_libraries
 
+    libraries, progress = shared
     install_libraries(libraries)
-    data, name, replay, robot = task
+    config, name = TrajoptConfig.from_dict(task.config), task.name
     try:
-        metrics, files = solve_files(TrajoptConfig.from_dict(data), name, robot, replay)
+        metrics, files = solve_files(config, name, task.robot, task.replay, progress)
     except MotionkitError as exc:
-        return (name, False, str(exc), {}), {}
-    return (name, True, summary_line(name, metrics), {k: metrics[k] for k in FIGURES}), files
+        return Outcome(name, False, str(exc), {}), {}
+    return Outcome(name, True, summary_line(name, metrics), {k: metrics[k] for k in FIGURES}), files
 
 
-def _compile_once(configs: list[TrajoptConfig], robot: Robot) -> dict[str, bytes]:
+def _portable(progress: Progress) -> Progress:
+    """`progress` for the workers, where it can be pickled (else `silent` there)."""
+    try:
+        pickle.dumps(progress)
+    except Exception:  # a lambda, a local function, an object holding a lock ...
+        return silent
+    return progress
+
+
+def _compile_once(
+    configs: list[TrajoptConfig], robot: Robot, progress: Progress
+) -> dict[str, bytes]:
     """Build the compiled functions of each distinct jet model in `configs` here, once; their
     files, for the workers to install in their caches."""
     from motionkit.trajopt.compiled import LOADED, export_libraries
@@ -279,7 +322,7 @@ def _compile_once(configs: list[TrajoptConfig], robot: Robot) -> dict[str, bytes
 
     first = len(LOADED)
     for config in {c.jets: c for c in configs}.values():
-        Prepared(robot, config, log=lambda text: print(text, flush=True))
+        Prepared(robot, config, log=progress)
     return export_libraries(LOADED[first:])
 
 

@@ -2,7 +2,7 @@
 
     motionkit view datasets/walk            # or: motionkit view --robot
     from motionkit.viewer import ViewerApp, resolve_clips
-    app = ViewerApp(robot, resolve_clips("walk.mcap"))   # server on 127.0.0.1, print(app.url)
+    app = ViewerApp(robot, resolve_clips("walk.mcap"))   # served on 127.0.0.1 at app.url
 
 resolve_clips gives a ClipInfo per checked clip; Playback is the timeline the app drives.
 

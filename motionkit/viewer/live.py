@@ -1,7 +1,7 @@
 """A rollout shown live (`motionkit play --view`): the robot as it is stepped, its waypoints,
 and a click on the floor placing the next waypoint at the height the slider sets.
 
-    view = LiveView(robot, route, height=0.6)   # server on 127.0.0.1, print(view.url)
+    view = LiveView(robot, route, height=0.6)   # served on 127.0.0.1 at view.url
     roll_out(..., watch=view.watch)             # poses the robot, hands over placed waypoints
 
 `floor_waypoint` is the placing rule on its own (no server).

@@ -18,8 +18,8 @@ from motionkit.jet_ident.step import LSTMThrust
 from motionkit.jet_ident.synthetic import synthetic_run
 from motionkit.jet_ident.train import (
     WindowSampler,
+    prior_only,
     prior_start,
-    silent,
     split,
     split_logs,
     train_lstm,
@@ -80,11 +80,14 @@ def test_the_prior_fits_alone_before_the_lstm_joins() -> None:
     # it starts as the least-squares prior, silent LSTM and all: the same free run
     train, valid = split_logs(logs, config.validation_fraction, config.validation_blocks)
     norm = result.params.norm
-    coeffs, delay = prior_start("second_order", train, valid, norm, config.warmup, 0)
-    start = LSTMThrust.from_variables(init_variables(8, config.seed, coeffs), norm, 0.01, delay)
+    prior = prior_start("second_order", train, valid, norm, config.warmup, 0)
+    coeffs = prior.coeffs
+    start = LSTMThrust.from_variables(
+        init_variables(8, config.seed, coeffs), norm, 0.01, prior.delay
+    )
     segments = [(p.thrust, p.throttle) for p in valid]
     at_start = validate(start, segments, config.warmup)
-    assert at_start == pytest.approx(validate(silent(coeffs, norm, 0.01), segments, 10))
+    assert at_start == pytest.approx(validate(prior_only(coeffs, norm, 0.01), segments, 10))
     assert (result.history[0]["val_mae"], result.history[0]["val_rmse"]) == at_start
     # the prior alone, fitted by its free run, beats its least-squares start on validation
     assert result.history[1]["val_rmse"] < 0.95 * at_start[1]

@@ -211,7 +211,7 @@ def test_every_stage_of_a_run_gets_its_robot(
 
     monkeypatch.setenv("MOTIONKIT_TRAJOPT_COMPILE", "-O0")  # seconds, not minutes
     given = []
-    monkeypatch.setattr(batch, "run_retarget", lambda *args: given.append(args[4]) or [])
+    monkeypatch.setattr(batch, "run_retarget", lambda *a, **k: given.append(a[4]) or [])
     mocap = tmp_path / "mocap"
     mocap.mkdir()
     (mocap / "walk.bvh").write_text(mini_bvh(arms_down(40)))
@@ -245,7 +245,9 @@ def test_cluster_goes_to_the_retarget_and_library_batches(
     import motionkit.trajopt.runner as runner
 
     calls: list[tuple[str, object]] = []
-    monkeypatch.setattr(batch, "run_retarget", lambda *a: calls.append(("retarget", a[5])) or [])
+    monkeypatch.setattr(
+        batch, "run_retarget", lambda *a, **k: calls.append(("retarget", a[5])) or []
+    )
     monkeypatch.setattr(
         runner, "solve_library", lambda *a, **k: calls.append(("library", k["cluster"])) or []
     )

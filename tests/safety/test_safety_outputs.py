@@ -23,6 +23,15 @@ def no_work(*args: object, **kwargs: object) -> None:
     raise AssertionError("the long work started")
 
 
+def no_work_stage(ctx: object) -> None:
+    """A pipeline stage that passes the dry run (recipes checked before OUT is made) and
+    fails if it is asked to do its work."""
+    from motionkit.pipeline.stages import DryRun
+
+    if not isinstance(ctx, DryRun):
+        no_work()
+
+
 def pipeline_recipe(folder: Path) -> Path:
     """A pipeline recipe whose retarget stage runs in this process (jobs = 1)."""
     (folder / "retarget.toml").write_text('kind = "walk"\n')
@@ -78,7 +87,7 @@ def test_pipeline_out_with_a_user_walk_folder_is_refused(
 ) -> None:
     import motionkit.pipeline.runner as runner
 
-    monkeypatch.setattr(runner, "STAGES", (("retarget", no_work),))
+    monkeypatch.setattr(runner, "STAGES", (("retarget", no_work_stage),))
     out = tmp_path / "out"
     (out / "walk").mkdir(parents=True)
     (out / "walk" / "mine.mcap").write_bytes(b"the user's")
@@ -158,7 +167,8 @@ def refused(
     if command == "jet-ident fit":
         pytest.importorskip("optax")
     arguments = argv(inputs, out)
-    monkeypatch.setattr(work, (("retarget", no_work),) if work.endswith("STAGES") else no_work)
+    stand_in = (("retarget", no_work_stage),) if work.endswith("STAGES") else no_work
+    monkeypatch.setattr(work, stand_in)
     assert main(arguments) == 2
     err = capsys.readouterr().err
     assert err.startswith("motionkit: error: ") and err.count("\n") == 1, err
