@@ -29,9 +29,13 @@ DOCUMENTED = ("retarget", "trajopt", "train", "pipeline", "viewer")
 DOCSTRING_STYLE = (
     "motionkit.robot",
     "motionkit.mocap",
+    "motionkit.trajopt",
+    "motionkit.jet_ident",
     "motionkit.dataset",
     "motionkit.train",
     "motionkit.viewer",
+    "motionkit.retarget",
+    "motionkit.pipeline",
 )
 
 

@@ -71,7 +71,19 @@ def _samples(logs: Sequence[BenchLog], smoothing_s: float) -> tuple[np.ndarray, 
 
 
 def fit_grey_box(logs: Sequence[BenchLog], smoothing_s: float = 0.3) -> GreyBox:
-    """Least-squares fit of the 13 coefficients to the logs' smoothed thrust acceleration."""
+    """Least-squares fit of the 13 coefficients to the logs' smoothed thrust acceleration.
+
+    Args:
+        logs: the bench logs, pooled.
+        smoothing_s: the width of the Savitzky-Golay filter that gives thrust, rate and
+            acceleration [s].
+
+    Returns:
+        The GreyBox: c0..c12 of the second-order structure with the P250's normalisation.
+
+    Raises:
+        JetIdentError: no logs.
+    """
     return grey_box_from_samples(*_samples(logs, smoothing_s))
 
 
@@ -93,7 +105,19 @@ def grey_box_from_samples(
 
 
 def fit_first_order(logs: Sequence[BenchLog], smoothing_s: float = 0.3) -> FirstOrderLag:
-    """Least-squares fit of Tdot = b0 + b1 u + b2 u^2 + b3 T; tau = -1 / b3."""
+    """Least-squares fit of Tdot = b0 + b1 u + b2 u^2 + b3 T; tau = -1 / b3.
+
+    Args:
+        logs: the bench logs, pooled.
+        smoothing_s: the width of the Savitzky-Golay filter that gives thrust and rate [s].
+
+    Returns:
+        The FirstOrderLag: its time constant tau [s] and static map Tss(u) = a0 + a1 u +
+        a2 u^2 [N], u in %.
+
+    Raises:
+        JetIdentError: no logs, or an unstable fit (b3 >= 0: no settling thrust in the logs).
+    """
     thrust, rate, _, throttle = _samples(logs, smoothing_s)
     return first_order_from_samples(thrust, rate, throttle)
 

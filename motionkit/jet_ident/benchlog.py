@@ -69,12 +69,40 @@ class BenchLog:
 
 
 def read_log(path: Path) -> BenchLog:
-    """The checked log in `path`, or JetIdentError naming the file, the line and the problem."""
+    """The checked log in `path`, or JetIdentError naming the file, the line and the problem.
+
+    Args:
+        path: the bench log, a UTF-8 CSV file (see the module doc for its format).
+
+    Returns:
+        The log, named by the file's stem: time [s], throttle [%] and thrust [N], each of
+        shape (samples,), and the `# key: value` comments as metadata.
+
+    Raises:
+        JetIdentError: a file that cannot be read, or text `parse_log` refuses.
+    """
     text = read_text(path, JetIdentError, "bench log")  # a regular file, UTF-8, never waited on
     return parse_log(text, str(path))
 
 
 def parse_log(text: str, source: str = "<log>") -> BenchLog:
+    """The checked log in CSV `text` (the format of the module doc).
+
+    Args:
+        text: the CSV text: `#` comments, a header naming time_s, throttle_pct and thrust_n,
+            one row per sample.
+        source: the name errors give for the text; its stem names the log.
+
+    Returns:
+        The log: time [s], throttle [%] and thrust [N], each of shape (samples,), and the
+        `# key: value` comments as metadata.
+
+    Raises:
+        JetIdentError: naming `source` and the line: no header, a missing, repeated or
+            wrong-unit column, fewer than 2 rows, a short row, a value that is not a finite
+            number, time not increasing or not uniformly sampled, throttle outside 0-100 %,
+            thrust out of range or apparently in grams or kN.
+    """
     metadata: dict[str, str] = {}
     rows: list[tuple[int, list[str]]] = []
     header: list[str] | None = None
@@ -204,8 +232,22 @@ def format_log(log: BenchLog) -> str:
 
 
 def write_log(path: Path, log: BenchLog) -> None:
-    """Write `log` as CSV, all or nothing, and only if the text reads back as a valid log (an
-    existing file is never replaced by one that `read_log` would refuse)."""
+    """Write `log` as CSV, all or nothing, and only if the text reads back as a valid log.
+
+    An existing file is never replaced by one that `read_log` would refuse. The metadata are
+    written as `# key: value` comments; time to 0.1 ms, throttle to 0.01 %, thrust to 1 mN.
+
+    Args:
+        path: the CSV file to write.
+        log: the log: time [s], throttle [%], thrust [N], each of shape (samples,).
+
+    Returns:
+        None.
+
+    Raises:
+        JetIdentError: a log that breaks a rule of the format, before or after the CSV's
+            rounding (nothing is written).
+    """
     check_log(log, str(path))
     text = format_log(log)
     parse_log(text, f"{path} (not written)")  # what the CSV's rounding makes of it

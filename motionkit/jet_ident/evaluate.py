@@ -79,7 +79,17 @@ def noise_sigma(thrust: np.ndarray) -> float:
 
 
 def noise_floor(logs: Sequence[BenchLog]) -> tuple[float, float]:
-    """(MAE, RMSE) [N] a perfect model would score: pooled load-cell noise of the logs."""
+    """(MAE, RMSE) [N] a perfect model would score: pooled load-cell noise of the logs.
+
+    Each log's noise sigma comes from the median absolute second difference of its thrust;
+    the logs are pooled weighted by their samples (see the module doc).
+
+    Args:
+        logs: the bench logs (or their validation parts).
+
+    Returns:
+        (sigma sqrt(2/pi), sigma) [N]: the MAE and RMSE of white noise of that sigma.
+    """
     weights = np.array([log.samples for log in logs], dtype=float)
     sigma = float(
         np.sqrt(np.average([noise_sigma(log.thrust) ** 2 for log in logs], weights=weights))

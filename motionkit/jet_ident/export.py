@@ -46,7 +46,20 @@ JETS = ("lstm", "grey_box", "selected")
 
 
 def save_model(path: Path, params: LSTMThrust, metadata: dict[str, Any] | None = None) -> None:
-    """Write `params` and `metadata` (JSON-serialisable) to `path`, all or nothing."""
+    """Write `params` and `metadata` (JSON-serialisable) to `path`, all or nothing.
+
+    The archive's format is the module doc's: the arrays as float32, the metadata as JSON
+    with the format, version, dt, delay, hidden and normalisation added.
+
+    Args:
+        path: the .npz file to write (its folder is made).
+        params: the LSTM model (its prior and dead time included).
+        metadata: free-form entries to store beside it, e.g. the baselines and "selected"
+            (None: none).
+
+    Returns:
+        None.
+    """
     norm = {name: float(getattr(params.norm, name)) for name in NORMALISATION}
     header = {
         **(metadata or {}),
@@ -67,7 +80,20 @@ def save_model(path: Path, params: LSTMThrust, metadata: dict[str, Any] | None =
 
 
 def load_model(path: Path) -> tuple[LSTMThrust, dict[str, Any]]:
-    """The model and metadata in `path`, or JetIdentError saying what is wrong."""
+    """The model and metadata in `path`, or JetIdentError saying what is wrong.
+
+    Args:
+        path: a .npz file `save_model` wrote.
+
+    Returns:
+        The LSTM model (LSTMThrust: arrays, normalisation, dt [s], prior, dead time
+        [samples]) and the whole metadata record.
+
+    Raises:
+        JetIdentError: a file that cannot be read or is not an .npz archive, missing arrays,
+            unreadable or incomplete metadata, another format or version, an array or prior
+            of the wrong shape, or a negative delay.
+    """
     data = read_bytes(path, JetIdentError, "the thrust model")  # a regular file, never waited on
     try:
         with np.load(io.BytesIO(data), allow_pickle=False) as archive:
@@ -110,8 +136,22 @@ def load_model(path: Path) -> tuple[LSTMThrust, dict[str, Any]]:
 
 
 def load_jet(path: Path, jet: str = "lstm") -> LSTMThrust | GreyBoxThrust:
-    """The step of one model in `path`: the LSTM, the grey box fitted beside it, or the one
-    `selected` on validation (the LSTM where the file does not say)."""
+    """The step of one model in `path`, as the `params` of `thrust_next`.
+
+    The LSTM, the grey box fitted beside it, or the one `selected` on validation (the LSTM
+    where the file does not say).
+
+    Args:
+        path: a .npz file `save_model` wrote.
+        jet: "lstm", "grey_box" or "selected".
+
+    Returns:
+        The LSTMThrust, or a GreyBoxThrust (its 13 coefficients, the LSTM's dt [s]).
+
+    Raises:
+        JetIdentError: an unknown `jet`, a file `load_model` refuses, unreadable baselines,
+            or a grey box asked of a file that holds none.
+    """
     if jet not in JETS:
         raise JetIdentError(f"jet {jet!r}: expected one of {', '.join(JETS)}")
     params, metadata = load_model(path)

@@ -71,8 +71,26 @@ def _fit_baselines(
 def identify(
     logs: Sequence[BenchLog], config: JetIdentConfig, progress: Progress = silent
 ) -> Identification:
-    """Fit the LSTM (train.py) and the baselines (their filter width chosen by validation RMSE)
-    on the training blocks of every log; score all three on its validation blocks."""
+    """Fit the LSTM and both baselines to `logs`; score all three on validation.
+
+    The LSTM (train.py) and the baselines (their filter width chosen by validation RMSE) are
+    fitted on the training blocks of every log; all three free-run on its validation blocks.
+
+    Args:
+        logs: the bench logs, all at the same sample rate.
+        config: the LSTM's model and training settings (its `train.validation_fraction`,
+            `validation_blocks` and `warmup` [samples] also split and score the baselines).
+        progress: called with each line of progress.
+
+    Returns:
+        The Identification: the LSTM's TrainResult, the grey box and first-order lag, the
+        baselines' filter width [s], the validation parts, each model's validation Metrics
+        (MAE, RMSE, max [N], steady [N], rise [s] ...) and the noise floor (MAE, RMSE) [N].
+
+    Raises:
+        JetIdentError: no logs, logs at different sample rates, logs too short for the
+            training windows, or a first-order fit that is unstable.
+    """
     fraction, warmup = config.train.validation_fraction, config.train.warmup
     train, validation = split_logs(logs, fraction, config.train.validation_blocks)
     progress(f"training the LSTM on {sum(t.samples for t in train)} samples of {len(logs)} log(s)")
@@ -110,9 +128,27 @@ def lstm_wins(metrics: dict[str, Metrics]) -> bool:
 def fit_logs(
     paths: list[Path], out: Path, config: JetIdentConfig, *, progress: Progress = silent
 ) -> dict[str, Any]:
-    """Fit the LSTM and the baselines to the bench logs at `paths`, report the training and the
-    comparison to `progress` and write OUT/model.npz, config.toml, report.json, report.txt,
-    history.csv (and validation.png with matplotlib); returns the report."""
+    """Fit the LSTM and the baselines to the bench logs at `paths`; write the model and reports.
+
+    Reports the training and the comparison to `progress` and writes OUT/model.npz,
+    config.toml, report.json, report.txt, history.csv (and validation.png with matplotlib);
+    returns the report.
+
+    Args:
+        paths: the bench logs' CSV files (see `read_log`).
+        out: the output folder (OUT).
+        config: the identification's settings (see `identify`).
+        progress: called with each line of progress and the report's table.
+
+    Returns:
+        The report also written to report.json: the logs, validation_fraction, warmup, each
+        model's validation metrics, noise_floor, lstm_beats_baselines, the training's figures,
+        baseline_smoothing_s and the model selected for the simulator.
+
+    Raises:
+        JetIdentError: an `out` that cannot take the files (checked before the fit), a log
+            that cannot be read or is invalid, or a fit that fails (see `identify`).
+    """
     warmup = config.train.warmup
     out = check_out(Path(out), OUTPUTS, JetIdentError)  # before the long part, like the logs
     logs = [read_log(path) for path in paths]

@@ -82,7 +82,21 @@ def _f_g(
 def thrust_acceleration(
     coeffs: Any, thrust: Any, rate: Any, throttle: Any, scales: tuple[float, ...] = SCALES
 ) -> Any:
-    """Tddot [N/s^2] at thrust [N], thrust rate [N/s] and throttle [%]."""
+    """Tddot [N/s^2] at thrust [N], thrust rate [N/s] and throttle [%].
+
+    Plain arithmetic: floats, numpy or JAX arrays (broadcast together) or CasADi symbols.
+
+    Args:
+        coeffs: c0..c12, shape (13,) (P250_COEFFS: the published P250).
+        thrust: the thrust T [N].
+        rate: the thrust rate Tdot [N/s].
+        throttle: the throttle u [%].
+        scales: the normalisation (thrust offset [N], thrust scale [N], throttle offset [%],
+            throttle scale [%]); the published P250's by default.
+
+    Returns:
+        Tddot [N/s^2], of the broadcast shape of thrust, rate and throttle.
+    """
     f, g, v = _f_g(coeffs, thrust, rate, throttle, scales)
     return scales[1] * (f + g * (v + coeffs[12] * v * v))
 

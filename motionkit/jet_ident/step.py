@@ -84,7 +84,21 @@ Params = LSTMThrust | GreyBoxThrust | IdealThrust
 
 
 def thrust_next(params: Params, state: Any, thrust: jax.Array, u: jax.Array):
-    """Next (state, thrust [N]) from the thrust [N] and the input `u` now (see the module doc)."""
+    """Next (state, thrust [N]) from the thrust [N] and the input `u` now (see the module doc).
+
+    One step of `params.dt`; pure JAX, so it jits and vmaps (a batch:
+    `jax.vmap(thrust_next, in_axes=(None, 0, 0, 0))`).
+
+    Args:
+        params: the model: LSTMThrust, GreyBoxThrust or IdealThrust.
+        state: the model's state (`initial_state`, or the last call's).
+        thrust: the thrust now [N], a scalar.
+        u: the input now, a scalar: throttle [%] (LSTM, grey box) or thrust rate [N/s]
+            (ideal jet).
+
+    Returns:
+        (state, thrust): the state and the thrust [N] one step later.
+    """
     if isinstance(params, IdealThrust):
         rate = jnp.clip(u, -params.rate_max, params.rate_max)
         return state, jnp.clip(thrust + rate * params.dt, 0.0, params.t_max)
@@ -123,9 +137,21 @@ def zero_state(params: Params) -> tuple[jax.Array, ...]:
 
 
 def initial_state(params: Params, thrust: jax.Array, u: jax.Array, steps: int = 50):
-    """The state of a jet resting at `thrust` with input `u`: the LSTM is run `steps` times on
-    these inputs from a zero state (as training warms it up); the grey box rests (Tdot = 0).
-    Scalar thrust and u; vmap for a batch."""
+    """The state of a jet resting at `thrust` with input `u`.
+
+    The LSTM is run `steps` times on these inputs from a zero state (as training warms it
+    up); the grey box rests (Tdot = 0), the ideal jet has no state. Scalar thrust and u; vmap
+    for a batch.
+
+    Args:
+        params: the model: LSTMThrust, GreyBoxThrust or IdealThrust.
+        thrust: the resting thrust [N], a scalar.
+        u: the input, a scalar: throttle [%] (LSTM, grey box) or thrust rate [N/s] (ideal).
+        steps: the LSTM's warm-up steps.
+
+    Returns:
+        The state for `thrust_next`: the LSTM's (c, h, ...), (Tdot,) of the grey box, or ().
+    """
     if not isinstance(params, LSTMThrust):
         return zero_state(params)
 
@@ -138,9 +164,20 @@ def initial_state(params: Params, thrust: jax.Array, u: jax.Array, steps: int = 
 
 
 def free_run(params: Params, thrust: jax.Array, u: jax.Array, warmup: int) -> jax.Array:
-    """Simulated thrust for samples warmup..n-1 of a log: the first `warmup` samples feed the
-    measured thrust, then the model feeds itself (as in training; the grey box starts at rest,
-    as its baseline does)."""
+    """Simulated thrust for samples warmup..n-1 of a log.
+
+    The first `warmup` samples feed the measured thrust, then the model feeds itself (as in
+    training; the grey box starts at rest, as its baseline does).
+
+    Args:
+        params: the model: LSTMThrust, GreyBoxThrust or IdealThrust.
+        thrust: the measured thrust [N], shape (n,).
+        u: the input at each sample, shape (n,): throttle [%] (or thrust rate [N/s]).
+        warmup: the samples fed the measured thrust (static under jit; at least 1).
+
+    Returns:
+        The simulated thrust [N] of samples warmup..n-1, shape (n - warmup,).
+    """
     state = zero_state(params)
     if isinstance(params, GreyBoxThrust):  # nothing to warm: from rest at sample warmup - 1
         thrust, u, warmup = thrust[warmup - 1 :], u[warmup - 1 :], 1

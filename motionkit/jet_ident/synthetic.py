@@ -52,7 +52,17 @@ class SyntheticRun:
 def identification_profile(
     duration_s: float, rate_hz: float, rng: np.random.Generator
 ) -> np.ndarray:
-    """Throttle [%] at `rate_hz` for `duration_s` (see the module doc, item 1)."""
+    """Throttle [%] at `rate_hz` for `duration_s` (see the module doc, item 1).
+
+    Args:
+        duration_s: the profile's length [s].
+        rate_hz: its sample rate [Hz].
+        rng: the random generator that draws its segments.
+
+    Returns:
+        The throttle command [%], shape (round(duration_s * rate_hz),), 0 to 100 at 0.01 %
+        resolution, from 5 s at idle to 8 s at idle.
+    """
     n = round(duration_s * rate_hz)
     parts = [np.zeros(round(5 * rate_hz))]
     current = 0.0
@@ -103,8 +113,25 @@ def synthetic_run(
     throttle: np.ndarray | None = None,
     ambient_c: float | None = None,
 ) -> SyntheticRun:
-    """One bench log of the engine on `throttle` (by default the seeded identification
-    profile), starting at `ambient_c` (by default drawn in the config's range)."""
+    """One synthetic bench log of the config's engine, with the bench's imperfections.
+
+    The engine runs on `throttle` (by default the seeded identification profile), starting at
+    `ambient_c` (by default drawn in the config's range); see the module doc for the steps.
+
+    Args:
+        config: the bench: engine model, profile length, rate, delay, ECU resolution,
+            ambient, load cell and noise.
+        seed: the seed of the profile, the ambient draw and the noise; it names the log
+            ("p250_seed{seed}").
+        throttle: the logged throttle command [%], shape (samples,), at the config's rate
+            (None: `identification_profile` of the config's duration).
+        ambient_c: the ambient temperature at the start [degC] (None: drawn).
+
+    Returns:
+        The SyntheticRun: the log (time [s], throttle [%], measured thrust [N] to 1 mN, the
+        bench's figures as metadata), the load cell's signal before noise [N], the engine's
+        thrust at the samples [N] and the starting ambient [degC].
+    """
     rng = np.random.default_rng(seed)
     dt = 1.0 / config.rate_hz
     if throttle is None:

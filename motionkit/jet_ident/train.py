@@ -169,8 +169,28 @@ def train_lstm(
     config: TrainConfig,
     progress: Progress = silent,
 ) -> TrainResult:
-    """Fit the LSTM to `logs` on each prior of `model.priors` in turn and keep the best on
-    validation; `progress` receives one line per validation."""
+    """Fit the LSTM to `logs` on each prior of `model.priors` in turn; keep the best.
+
+    The best is the one of lowest validation free-run RMSE; each prior gets a share of the
+    time left. `progress` receives one line per validation.
+
+    Args:
+        logs: the bench logs, all at the same sample rate; each is split into training and
+            validation blocks (`config.validation_fraction`, `config.validation_blocks`).
+        model: the LSTM's size, the priors to try and the longest dead time [s].
+        config: the optimiser, windows [samples], validation, early stopping, time limit
+            [min] and seed.
+        progress: called with each line of progress.
+
+    Returns:
+        The TrainResult of the best prior: its model (LSTMThrust), best step, why it stopped,
+        seconds, validation history, prior, dead time [samples], validation MAE and RMSE [N],
+        and each prior's (MAE, RMSE) [N].
+
+    Raises:
+        JetIdentError: no logs, logs at different sample rates, or a training or validation
+            part too short for the windows.
+    """
     start = time.perf_counter()
     dt = common_dt(logs)
     train, valid = split_logs(logs, config.validation_fraction, config.validation_blocks)

@@ -33,10 +33,35 @@ def run_pipeline(
     cluster: str | None = None,
     progress: Progress = silent,
 ) -> list[Outcome]:
-    """Run every stage up to `until` (default: all) into its folder of `out` for `robot` (the
-    retarget clips and the trajopt library on the Ray cluster at `cluster`, if given);
+    """Run every stage up to `until` (default: all) into its folder of `out` for `robot`.
+
+    The retarget clips and the trajopt library run on the Ray cluster at `cluster`, if given;
     PipelineError naming the stage when one fails (its previous output is kept). `progress`
-    receives the stages' lines and the table of what was made."""
+    receives the stages' lines and the table of what was made. A stage whose inputs are
+    unchanged is found cached; the run also writes OUT/pipeline_summary.json.
+
+    Args:
+        config: the pipeline's recipes, one per stage.
+        out: the output folder (OUT): walk/, flight/, jet/, datasets/, train/.
+        robot: the robot every stage works on.
+        mocap_dir: retarget every .bvh/.amc under this folder instead of the recipe's clips.
+        full: train with the paper's GPU recipe, not the tiny one.
+        force: run every stage, cached or not.
+        fetch: retarget the CMU clips of the fetch recipe, downloaded into the cache.
+        until: the last stage to run, one of STAGE_NAMES (None: all).
+        cluster: the address of a Ray cluster for the retarget clips and the flight library
+            (None: local processes).
+        progress: called with each line of progress.
+
+    Returns:
+        One Outcome per stage run, in order: stage, status ('ran' or 'cached'), seconds, what
+        it made, its output folder and its cache key.
+
+    Raises:
+        PipelineError: an unknown `until`; a recipe or input a stage refuses (checked before
+            OUT is made); an `out` that holds files motionkit did not write; or a stage that
+            fails, naming it.
+    """
     if until is not None and until not in STAGE_NAMES:
         raise PipelineError(f"unknown stage '{until}'; the stages: {', '.join(STAGE_NAMES)}")
     ctx = Context(config, Path(out).resolve(), robot, mocap_dir, full, force, fetch, cluster,

@@ -62,8 +62,21 @@ Report = Callable[[ClipResult, int, int], None]  # a clip's result, the clips do
 def resolve_inputs(
     inputs: Iterable[str], fetch: Callable[[list[str]], list[tuple[Path, Path]]] | None = None
 ) -> list[ClipInput]:
-    """Files (.bvh, .amc), folders (searched recursively) and CMU clip ids ("02_01", fetched
-    into the cache by `fetch`), in order, without duplicates."""
+    """The clips named by files, folders and CMU clip ids, in order, without duplicates.
+
+    Args:
+        inputs: .bvh or .amc files (an .amc's skeleton .asf beside it), folders (searched
+            recursively for both) and CMU clip ids such as "02_01".
+        fetch: downloads clip ids into the cache and returns their (.amc, .asf) paths
+            (default: motionkit.mocap.fetch.fetch_clips).
+
+    Returns:
+        One ClipInput per clip: its file, skeleton file (or None) and name.
+
+    Raises:
+        RetargetError: a missing path, a folder without mocap files, a file that is not a
+            .bvh or .amc, or a text that is neither a path nor a clip id.
+    """
     found: list[ClipInput] = []
     clip_ids: list[str] = []
     for text in inputs:
@@ -155,8 +168,19 @@ def retarget_clip(
     robot: Robot | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> ClipResult:
-    """Read, retarget and write one clip for `robot` (default iRonCub) as `out/<name>.mcap`;
-    errors become the result's `error` (nothing is written for a failed clip)."""
+    """Read, retarget and write one clip as OUT/<name>.mcap.
+
+    Args:
+        clip: the clip (`resolve_inputs`).
+        out: the output folder.
+        config: the retargeting config.
+        robot: the robot to retarget onto (default iRonCub).
+        progress: called with (frames done, frames in all) as the IK goes.
+
+    Returns:
+        The clip's result: its output path, frames, quality figures and stage times; or, for a
+        clip that could not be read or retargeted, its `error` (and nothing written).
+    """
     try:
         inside(out, f"{clip.name}.mcap", RetargetError)
     except MotionkitError as exc:
@@ -204,11 +228,23 @@ def retarget_all(
     resume: bool = False,
     frames: bool = False,
 ) -> list[ClipResult]:
-    """Retarget every clip (their names distinct: `check_names`) for `robot` into `out` on
-    `executor` (motionkit.executors.open_executor); the workers return the clips and this
-    process writes them. `report` receives each result as it comes; with `frames`, a clip
-    retargeted in this process draws its frames done on stderr (motionkit.progress). With
-    `resume`, a clip whose output is up to date (`clip_key`) is kept. Results in input order."""
+    """Retarget every clip into OUT on an executor.
+
+    The workers return the clips and this process writes them.
+
+    Args:
+        clips: the clips, their names distinct (`check_names`).
+        out: the output folder (claimed by the caller: `run_retarget`).
+        config: the retargeting config.
+        executor: where the clips run (motionkit.executors.open_executor).
+        robot: the robot to retarget onto.
+        report: receives (result, clips done, clips in all) as each clip ends.
+        resume: keep the clips whose output is up to date (`clip_key`).
+        frames: a clip retargeted in this process draws its frames done on stderr.
+
+    Returns:
+        Every clip's result, in input order (failed ones without output).
+    """
     keys = [clip_key(clip, config, robot) for clip in clips]
     results: dict[int, ClipResult] = {}
 
@@ -301,13 +337,29 @@ def run_retarget(
     report: Report | None = None,
     frames: bool = False,
 ) -> list[ClipResult]:
-    """Retarget `clips` into `out` for `robot` (default iRonCub; in `jobs` processes, or on the
-    Ray cluster at `cluster`) and write OUT/retarget_summary.json; returns every clip's result
-    (failed ones have no output). `progress` receives the lines of `motionkit retarget`: the
-    batch's, each clip's as it comes (`clip_line`; to `report` instead, if given), the quality
-    table. With `resume`, clips whose outputs are up to date are kept; `frames`: see
-    `retarget_all`. A folder holding files of those names that motionkit did not write is
-    refused; an unreachable cluster writes nothing."""
+    """Retarget a batch of clips into OUT and write OUT/retarget_summary.json.
+
+    Args:
+        clips: the clips (`resolve_inputs`), their names distinct.
+        out: the output folder; one holding files of those names that motionkit did not write
+            is refused.
+        config: the retargeting config.
+        jobs: local worker processes.
+        robot: the robot to retarget onto (default iRonCub).
+        cluster: a Ray cluster address to run the clips on instead (an unreachable one writes
+            nothing).
+        resume: keep the clips whose outputs are up to date.
+        progress: receives the lines of `motionkit retarget`: the batch's, each clip's as it
+            comes (`clip_line`), the quality table.
+        report: receives each clip's result instead of its `clip_line` (result, done, total).
+        frames: see `retarget_all`.
+
+    Returns:
+        Every clip's result, in input order (failed ones without output).
+
+    Raises:
+        RetargetError: clips of the same name, or an output folder that cannot be used.
+    """
     check_names(clips)
     robot = robot or ironcub()
     unused = sorted(set(config.trim) - {c.name for c in clips})

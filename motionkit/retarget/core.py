@@ -66,8 +66,10 @@ def retarget(
     progress: Callable[[int], None] | None = None,
     span: tuple[float, float] | None = None,
 ) -> tuple[Trajectory, Timings]:
-    """The robot motion that follows a human's, made balanceable by the dynamic filter
-    (`config.balance`: the base moves so that the centre of pressure stays in the support).
+    """The robot motion that follows a human's, made balanceable by the dynamic filter.
+
+    The filter (`config.balance`) moves the base so that the centre of pressure stays in the
+    support.
 
     Args:
         landmarks: the human's landmark positions, (T, 3) each [m], world frame, Z up;

@@ -17,7 +17,22 @@ THRUST_SLACK = 1e-3  # N
 
 
 def check_solution(solution: Solution, robot: Robot) -> dict[str, Any]:
-    """Figures that say whether the solution is physically consistent; `passed` sums them up."""
+    """Figures that say whether the solution is physically consistent; `passed` sums them up.
+
+    `passed`: every constraint group within 10 times the solver's constr_viol_tol,
+    complementarity under 1e-4 N m, the target error within 1 cm and the thrusts within
+    [0, t_max * thrust_fraction] (to 1 mN).
+
+    Args:
+        solution: the solved knots (`Prepared.solve`).
+        robot: the robot it was solved for (its jets' thrust limits).
+
+    Returns:
+        The figures: the largest residual of each constraint group (kinematic ties,
+        dynamics, contact, no-slip), complementarity_violation_nm (largest f_z c_z [N m]),
+        max_force_off_ground_n, target_error_m (the last CoM's distance to the target; x, y
+        only for a stand end), thrust_min_n, thrust_max_n, thrust_within_limits and passed.
+    """
     knots, config = solution.knots, solution.config
     scenario = config.scenario
     worst = violation(solution.constraint_values, solution.lower, solution.upper)

@@ -61,8 +61,21 @@ def clip_name(entry: str, target: tuple[float, ...]) -> str:
 
 
 def read_library(path: Path) -> list[LibrarySolve]:
-    """Every solve the library names, each config resolved and validated; TrajoptError naming
-    the file and the entry on bad input."""
+    """Every solve the library names, each config resolved and validated.
+
+    TrajoptError naming the file and the entry on bad input.
+
+    Args:
+        path: the library's TOML file ([[entries]] tables; recipes are found beside it).
+
+    Returns:
+        One LibrarySolve per clip (name, entry, config), entry by entry, target by target.
+
+    Raises:
+        TrajoptError: a file that cannot be read, keys other than [[entries]], an entry with
+            unknown keys, a bad name, targets or grid, a missing recipe, an invalid config, or
+            a clip named twice.
+    """
     path = Path(path)
     data = read_toml(path, "flight library", TrajoptError)
     unknown = sorted(set(data) - {"entries"})

@@ -72,9 +72,31 @@ def solve_clip(
     *,
     progress: Progress = silent,
 ) -> dict[str, Any]:
-    """Solve, check and write one scenario for `robot` as OUT/NAME.mcap (+ .knots.npz,
-    .config.json); returns its metrics. TrajoptError (nothing written) when it fails.
-    `progress` receives the solve's lines ("[NAME] homotopy ...")."""
+    """Solve, check and write one scenario for `robot`; returns its metrics.
+
+    The clip is written as OUT/NAME.mcap (+ .knots.npz, .config.json). TrajoptError (nothing
+    written) when it fails. `progress` receives the solve's lines ("[NAME] homotopy ...").
+
+    Args:
+        config: the scenario, weights, contacts, jets and solver settings of the solve.
+        out: the output folder (OUT).
+        name: the clip's file stem (NAME).
+        robot: the robot to solve for.
+        replay: also replay the solution in MuJoCo, open loop and stabilised; the
+            stabilised replay must track for the solve to pass.
+        progress: called with each line of the solve.
+
+    Returns:
+        The metrics also written to NAME.config.json: the solver's figures (status,
+        iterations, variables, constraints, build_s, solve_s, duration_s ...), the checks'
+        (`check_solution`), airborne_s and horizontal_speed_mps, with `replay` the replays'
+        base and orientation errors and stabilised_tracked, and `passed`.
+
+    Raises:
+        TrajoptError: the [trajopt] extra missing, an `out` that cannot take the clip (a file,
+            read only, holding files of these names motionkit did not write) or a `name`
+            leading outside it, a solve that fails or a solution that fails its checks.
+    """
     require("trajopt", "trajopt", TrajoptError)
     check_clips(out, [name])
     metrics, files = solve_files(config, name, robot, replay, progress)
@@ -113,6 +135,19 @@ def solve_files(
 
 
 def summary_line(name: str, metrics: dict[str, Any]) -> str:
+    """The one line `motionkit trajopt` prints of a solved clip.
+
+    Status, iterations, solve and build seconds, problem size, target error [mm],
+    complementarity [N m], dynamics residual and, when the metrics have them, the replays'
+    largest base errors [m].
+
+    Args:
+        name: the clip's name, the line's start.
+        metrics: the solve's metrics (those `solve_clip` returns).
+
+    Returns:
+        The line, without a newline.
+    """
     text = (
         f"{name}: {metrics['status']}, {metrics['iterations']} iterations, "
         f"{metrics['solve_s']:.1f} s (+{metrics['build_s']:.1f} s build); "
@@ -140,8 +175,31 @@ def solve_grid(
     *,
     progress: Progress = silent,
 ) -> list[Outcome]:
-    """One solve of `config` per target, each clip named by `clip_stem`, in `jobs` processes
-    (or on the Ray cluster at `cluster`); `resume` keeps the clips that are up to date."""
+    """One solve of `config` per target, in `jobs` processes or on a Ray cluster.
+
+    Each clip is named by `clip_stem` (scenario and target, "takeoff_+0p00_+0p00_+1p00"); a
+    clip that fails is reported in its outcome and writes nothing.
+
+    Args:
+        config: the solve; each target replaces its scenario's target.
+        targets: the scenario targets, each (x, y, z) [m] (a stand end: only x, y count).
+        out: the output folder of the clips.
+        robot: the robot to solve for.
+        jobs: the number of local worker processes.
+        replay: also replay each solution in MuJoCo (see `solve_clip`).
+        cluster: the address of a Ray cluster to solve on instead (None: local processes).
+        resume: keep the clips in `out` that are up to date instead of solving them again.
+        progress: called with each line of progress and each outcome's line.
+
+    Returns:
+        One Outcome per target, in their order: name, solved, its summary line (or why it
+        failed) and its figures (solve_s, duration_s, airborne_s).
+
+    Raises:
+        TrajoptError: a target that makes the config invalid (not finite), the [trajopt]
+            extra missing, an `out` that cannot take the clips, or a `cluster` that cannot be
+            reached (all before anything is written).
+    """
     tasks = []
     for target in targets:
         item = config.with_scenario(target=tuple(target))
@@ -161,9 +219,31 @@ def solve_library(
     *,
     progress: Progress = silent,
 ) -> list[Outcome]:
-    """Solve, check and write every clip of a flight library for `robot` in `jobs` processes
-    (or on the Ray cluster at `cluster`); a clip that fails is reported in its outcome and
-    writes nothing; `resume` keeps the clips that are up to date."""
+    """Solve, check and write every clip of a flight library for `robot`.
+
+    The solves run in `jobs` processes (or on the Ray cluster at `cluster`); a clip that fails
+    is reported in its outcome and writes nothing; `resume` keeps the clips that are up to
+    date.
+
+    Args:
+        path: the library's TOML file (see `read_library`).
+        out: the output folder of the clips.
+        robot: the robot to solve for.
+        jobs: the number of local worker processes.
+        replay: also replay each solution in MuJoCo (see `solve_clip`).
+        quiet: silence IPOPT (print_level 0) even where an entry asks for its log.
+        cluster: the address of a Ray cluster to solve on instead (None: local processes).
+        resume: keep the clips in `out` that are up to date instead of solving them again.
+        progress: called with each line of progress and each outcome's line.
+
+    Returns:
+        One Outcome per clip of the library, in its order (see `solve_grid`).
+
+    Raises:
+        TrajoptError: a library that cannot be read or is invalid, the [trajopt] extra
+            missing, an `out` that cannot take the clips, or a `cluster` that cannot be
+            reached (all before anything is written).
+    """
     from motionkit.trajopt.library import read_library
 
     solves = read_library(path)
@@ -263,7 +343,17 @@ def _kept(out: Path, name: str, key: str) -> Outcome | None:
 def library_summary(
     outcomes: list[Outcome], wall: float, jobs: int, cluster: str | None = None
 ) -> str:
-    """A table of the clips (airborne, duration and IPOPT seconds) and the totals."""
+    """A table of the clips (airborne, duration and IPOPT seconds) and the totals.
+
+    Args:
+        outcomes: the outcomes of a batch (`solve_grid`, `solve_library`).
+        wall: the batch's wall-clock time [s].
+        jobs: the number of worker processes it ran in (named unless `cluster`).
+        cluster: the Ray cluster it ran on (None: local processes).
+
+    Returns:
+        The lines: one per solved clip, the totals, and the failed clips' names if any.
+    """
     solved = [o for o in outcomes if o.solved]
     width = max([len(o.name) for o in solved] + [4])
     lines = [f"{'clip':<{width}}  airborne [s]  duration [s]  solve [s]"]
