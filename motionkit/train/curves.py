@@ -70,18 +70,16 @@ def draw_curves(run: Path, path: Path | None = None) -> Path:
     train = read_table(run / "train.csv")
     if "env_steps" not in train:
         raise TrainError(f"{run}: no train.csv with env_steps to draw")
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+    try:  # a Figure of its own, not pyplot: a notebook's backend and figures stay as they are
+        from matplotlib.figure import Figure
     except ImportError as exc:
         raise TrainError("the training curves need matplotlib (the [train] extra)") from exc
     evaluation = read_table(run / "eval.csv")
     steps = train["env_steps"] / 1e6
     eval_steps = np.interp(evaluation.get("iteration", []), train["iteration"], steps)
     window = max(1, len(steps) // 50)
-    figure, axes = plt.subplots(3, 3, figsize=(13, 9), sharex=True)
+    figure = Figure(figsize=(13, 9))
+    axes = figure.subplots(3, 3, sharex=True)
     for ax, (title, columns) in zip(axes.flat, PANELS.items(), strict=True):
         for color, column in zip(("C0", "C1"), columns, strict=False):
             label = column.replace("disc_", "").replace("_", " ")
@@ -104,7 +102,6 @@ def draw_curves(run: Path, path: Path | None = None) -> Path:
     path = run / "curves.png" if path is None else path
     with atomic_output(path) as stream:
         figure.savefig(stream, format="png", dpi=90)
-    plt.close(figure)
     return path
 
 

@@ -123,3 +123,11 @@ def test_simulated_clips_may_press_into_their_soft_joint_limits(
     assert soft not in pressed(0.012, rollout)
     assert "3 frames beyond; worst l_hip_pitch by 0.05" in pressed(0.05, rollout)[soft]
     assert "joint position limits" in pressed(0.012, clean.metadata)
+    # the simulator has no joint velocity limit: beyond one is a warning in a rollout alone
+    fast = edited(clean, "joint_velocities", lambda v: v.__setitem__((slice(5, 8), hip), 50.0))
+    checks = {c.name: c for c in validate_clip(write(tmp_path / "fast.mcap", fast, robot), robot)}
+    assert not checks["joint velocity limits"].ok and not checks["joint velocity limits"].warning
+    simulated = replace(fast, metadata=rollout)
+    checks = validate_clip(write(tmp_path / "fast.mcap", simulated, robot), robot)
+    warned = {c.name: c for c in checks}["joint velocity limits (not simulated)"]
+    assert warned.warning and not warned.ok and "3 frames beyond" in warned.detail
