@@ -7,6 +7,7 @@ import json
 import re
 import time as clock
 from collections.abc import Callable, Iterable
+from contextlib import nullcontext
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -17,8 +18,8 @@ from motionkit.errors import MotionkitError, RetargetError
 from motionkit.executors import Executor, open_executor
 from motionkit.outputs import claimed_out, inside, up_to_date, write_files, write_text_atomic
 from motionkit.progress import LineProgress, Progress, silent
-from motionkit.retarget.config import RetargetConfig
-from motionkit.retarget.metrics import QUALITY, Quality
+from motionkit.retarget.config import CleanWalk, RetargetConfig
+from motionkit.retarget.metrics import Quality
 from motionkit.robot import Robot, ironcub
 
 MOCAP_SUFFIXES = (".bvh", ".amc")
@@ -50,6 +51,9 @@ class ClipResult:
     metrics: dict[str, Any] = field(default_factory=dict)  # all of them, as in its metadata
     error: str = ""
     resumed: bool = False  # kept from an earlier run (--resume): its output was up to date
+    # the figures beyond the quality gate ('name value > limit'): a failed clip, or one written
+    # to the keep-failed folder
+    beyond: tuple[str, ...] = ()
 
     @property
     def quality(self) -> Quality:
@@ -179,14 +183,34 @@ def retarget_clip(
 
     Returns:
         The clip's result: its output path, frames, quality figures and stage times; or, for a
-        clip that could not be read or retargeted, its `error` (and nothing written).
+        clip that could not be read or retargeted or is beyond `config.quality`, its `error`
+        (and nothing written).
     """
     try:
         inside(out, f"{clip.name}.mcap", RetargetError)
     except MotionkitError as exc:
         return ClipResult(clip.name, str(clip.path), None, error=str(exc))
     result, data = encode_clip(clip, config, robot or ironcub(), progress)
-    return result if result.error else _write(result, out, data)
+    return result if result.error else _gated(result, data, config.quality, out)
+
+
+def _gated(
+    result: ClipResult,
+    data: bytes,
+    clean: CleanWalk,
+    out: Path,
+    key: str = "",
+    keep_failed: Path | None = None,
+) -> ClipResult:
+    """A clip within the quality gate written to OUT; one beyond it a failure (its figures
+    kept in the result), or written to `keep_failed` instead where one is given."""
+    beyond = tuple(result.quality.beyond(clean))
+    if not beyond:
+        return _write(result, out, data, key)
+    if keep_failed is not None:
+        return replace(_write(result, keep_failed, data), beyond=beyond)
+    error = f"beyond the clean figures: {', '.join(beyond)} (--keep-failed DIR writes it there)"
+    return replace(result, error=error, beyond=beyond)
 
 
 def _write(result: ClipResult, out: Path, data: bytes, key: str = "") -> ClipResult:
@@ -227,6 +251,7 @@ def retarget_all(
     *,
     resume: bool = False,
     frames: bool = False,
+    keep_failed: Path | None = None,
 ) -> list[ClipResult]:
     """Retarget every clip into OUT on an executor.
 
@@ -241,6 +266,8 @@ def retarget_all(
         report: receives (result, clips done, clips in all) as each clip ends.
         resume: keep the clips whose output is up to date (`clip_key`).
         frames: a clip retargeted in this process draws its frames done on stderr.
+        keep_failed: a folder (claimed by the caller) for the clips beyond the quality gate
+            (`config.quality`); without one they fail and are not written.
 
     Returns:
         Every clip's result, in input order (failed ones without output).
@@ -268,7 +295,9 @@ def retarget_all(
             finish(i, ClipResult(clips[i].name, str(clips[i].path), None, error=done.lost))
             continue
         result, data = done.value
-        finish(i, result if result.error else _write(result, out, data, keys[i]))
+        if not result.error:
+            result = _gated(result, data, config.quality, out, keys[i], keep_failed)
+        finish(i, result)
     return [results[i] for i in range(len(clips))]
 
 
@@ -336,6 +365,7 @@ def run_retarget(
     progress: Progress = silent,
     report: Report | None = None,
     frames: bool = False,
+    keep_failed: Path | None = None,
 ) -> list[ClipResult]:
     """Retarget a batch of clips into OUT and write OUT/retarget_summary.json.
 
@@ -353,6 +383,8 @@ def run_retarget(
             comes (`clip_line`), the quality table.
         report: receives each clip's result instead of its `clip_line` (result, done, total).
         frames: see `retarget_all`.
+        keep_failed: another folder, where the clips beyond the quality gate are written
+            (with their figures in their metadata) instead of failing.
 
     Returns:
         Every clip's result, in input order (failed ones without output).
@@ -361,6 +393,8 @@ def run_retarget(
         RetargetError: clips of the same name, or an output folder that cannot be used.
     """
     check_names(clips)
+    if keep_failed is not None and Path(keep_failed).absolute() == Path(out).absolute():
+        raise RetargetError(f"--keep-failed {keep_failed}: give another folder than --out")
     robot = robot or ironcub()
     unused = sorted(set(config.trim) - {c.name for c in clips})
     if unused:
@@ -370,13 +404,18 @@ def run_retarget(
     inline = jobs <= 1 or len(clips) == 1
     with open_executor(min(jobs, len(clips)), cluster, RetargetError, inline) as executor:
         progress(f"retargeting {len(clips)} clip(s) into {out} with {executor.where}")
-        with claimed_out(out, names, RetargetError):
+        held = (
+            nullcontext()
+            if keep_failed is None
+            else claimed_out(keep_failed, names[:-1], RetargetError)
+        )
+        with claimed_out(out, names, RetargetError), held:
             results = retarget_all(clips, out, config, executor, robot, report, resume=resume,
-                                   frames=frames)  # fmt: skip
-            if any(r.output is not None for r in results):
+                                   frames=frames, keep_failed=keep_failed)  # fmt: skip
+            if any(r.output is not None and not r.beyond for r in results):  # in OUT
                 summary = {"config": config.to_dict(), "clips": [_result_json(r) for r in results]}
                 write_text_atomic(out / SUMMARY, json.dumps(summary, indent=2))
-    for line in summary_lines(results):
+    for line in summary_lines(results, config.quality):
         progress(line)
     return results
 
@@ -388,6 +427,8 @@ def clip_line(result: ClipResult, done: int, total: int) -> str:
         return f"{clip}: failed: {result.error}"
     if result.resumed:
         return f"{clip}: up to date, kept -> {result.output}"
+    if result.beyond:
+        return f"{clip}: beyond the clean figures ({', '.join(result.beyond)}) -> {result.output}"
     rate = result.frames / result.seconds if result.seconds else 0.0
     return (
         f"{clip}: {result.frames} frames in {result.seconds:.2f} s ({rate:.0f} frames/s) "
@@ -395,20 +436,27 @@ def clip_line(result: ClipResult, done: int, total: int) -> str:
     )
 
 
-def summary_lines(results: list[ClipResult]) -> list[str]:
-    """The quality table of a batch, then what it kept (--resume) and what failed."""
-    lines = quality_table(results)
+def summary_lines(results: list[ClipResult], clean: CleanWalk | None = None) -> list[str]:
+    """The quality table of a batch (against `clean`), then what it kept (--resume), what it
+    wrote to the keep-failed folder and what failed."""
+    lines = quality_table(results, clean)
     kept = sum(r.resumed for r in results)
     if kept:
         lines.append(f"{kept} of {len(results)} clip(s) up to date and kept (--resume)")
+    held = [r for r in results if r.beyond and r.output is not None]
+    if held:
+        folder = held[0].output.parent
+        lines.append(f"{len(held)} clip(s) beyond the clean figures written to {folder}")
     failed = sum(r.output is None for r in results)
     if failed:
         lines.append(f"{failed} of {len(results)} clip(s) failed; nothing written for them")
     return lines
 
 
-def quality_table(results: list[ClipResult]) -> list[str]:
-    """A line per clip of its quality figures, flagged where beyond those of a clean walk."""
+def quality_table(results: list[ClipResult], clean: CleanWalk | None = None) -> list[str]:
+    """A line per clip of its quality figures, flagged where beyond those of a clean walk
+    (`clean`, default the gate's defaults)."""
+    clean = clean or CleanWalk()
     header = (
         f"{'clip':<18} {'frames':>6} {'slide p95':>9} {'source':>7} {'sink':>6} {'limits':>6} "
         f"{'feet':>6} {'knees':>6} {'clear':>7}  check"
@@ -416,12 +464,14 @@ def quality_table(results: list[ClipResult]) -> list[str]:
     lines = [f"\n{header}\n{'':<18} {'':>6} {'[cm/s]':>9} {'[cm/s]':>7} {'[mm]':>6} {'':>6} "
              f"{'[cm]':>6} {'[cm]':>6} {'[cm]':>7}"]  # fmt: skip
     for r in results:
-        if r.output is None:
+        if not r.metrics:
             lines.append(f"{r.name:<18} failed: {r.error}")
             continue
         q = r.quality
         violations = q.joint_position_violations + q.joint_velocity_violations
-        problems = q.beyond()
+        problems = q.beyond(clean)
+        check = "ok" if not problems else "beyond: " + ", ".join(problems)
+        check = f"FAILED, {check}" if r.output is None else check
         lines.append(
             f"{r.name:<18} {r.frames:>6} {100 * q.foot_slide_p95_m_s:>9.2f} "
             f"{100 * q.source_slide_p95_m_s:>7.1f} "
@@ -429,10 +479,10 @@ def quality_table(results: list[ClipResult]) -> list[str]:
             f"{100 * q.feet_error_mean_m:>6.2f} "
             f"{100 * q.knees_error_mean_m:>6.2f} "
             f"{100 * q.closest_approach_m:>7.1f}  "
-            f"{'ok' if not problems else 'beyond: ' + ', '.join(problems)}"
+            f"{check}"
         )
-    clean = ", ".join(f"{name} <= {limit}" for name, limit in asdict(QUALITY).items())
-    lines.append(f"(clean: {clean})")
+    limits = ", ".join(f"{name} <= {limit}" for name, limit in asdict(clean).items())
+    lines.append(f"(clean: {limits})")
     return lines
 
 
@@ -440,7 +490,9 @@ def _result_json(result: ClipResult) -> dict[str, Any]:
     return {
         "name": result.name,
         "source": result.source,
-        "output": result.output.name if result.output else None,  # beside the summary
+        "output": result.output.name if result.output and not result.beyond else None,
+        "kept_failed": str(result.output) if result.output and result.beyond else None,
+        "beyond": list(result.beyond),
         "frames": result.frames,
         "seconds": result.seconds,
         "stages_s": result.stages,

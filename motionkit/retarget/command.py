@@ -28,9 +28,12 @@ name such as cmu_walk) can list clips too; its settings are RetargetConfig's fie
 
 Each clip becomes DIR/<name>.mcap with the resolved config and its quality metrics in the
 metadata; DIR/retarget_summary.json holds every clip's metrics and stage times. A clip that
-fails writes nothing and makes the exit status 1. The summary marks figures beyond those of a
-clean walk: foot slide p95 > 1 cm/s, penetration > 2 mm, any limit violation, mean foot error
-> 3 cm. --cluster ADDRESS runs the clips on a Ray cluster (the [cluster] extra) instead of local
+fails writes nothing and makes the exit status 1. So does a clip beyond the figures of a clean
+walk (the quality gate: foot slide p95 > 1 cm/s, penetration > 2 mm, any limit violation, mean
+foot error > 3 cm; a recipe's [quality] table sets other limits), unless --keep-failed DIR2
+is given: such clips are then written to DIR2, never where priors are read.
+
+--cluster ADDRESS runs the clips on a Ray cluster (the [cluster] extra) instead of local
 processes; this process writes every clip. --resume keeps the clips whose output is up to date
 (same input files, config, robot and code), so a sweep that was stopped does only the rest.
 
@@ -63,6 +66,12 @@ def add_commands(
     )
     add_batch_options(retarget, "clips")
     retarget.add_argument("--kind", help="dataset label of the outputs (default: the config's)")
+    retarget.add_argument(
+        "--keep-failed",
+        type=Path,
+        metavar="DIR",
+        help="write the clips beyond the quality gate to DIR (another folder) instead of failing",
+    )
     retarget.add_argument(
         "--no-balance",
         action="store_true",
@@ -109,12 +118,15 @@ def _retarget(args: argparse.Namespace) -> int:
         require("cluster", "--cluster", RetargetError)  # before any download
     jobs = args.jobs or os.cpu_count() or 1
     check_out(args.out, [], RetargetError)  # before any download
+    if args.keep_failed is not None:
+        check_out(args.keep_failed, [], RetargetError)
     base = args.config.parent if args.config else Path.cwd()
     recipe = [str(base / c) if (base / c).exists() else c for c in config.clips]
     clips = resolve_inputs([*recipe, *args.inputs])
     robot = load_robot(args.urdf, args.spec)
     results = run_retarget(clips, args.out, config, jobs, robot, args.cluster, args.resume,
-                           progress=echo, report=_report_clip, frames=True)  # fmt: skip
+                           progress=echo, report=_report_clip, frames=True,
+                           keep_failed=args.keep_failed)  # fmt: skip
     return 1 if any(r.output is None for r in results) else 0
 
 

@@ -70,6 +70,21 @@ class Balance:
 
 
 @dataclass(frozen=True)
+class CleanWalk:
+    """The quality gate: the figures of a clean retargeted walk. A clip beyond any of them is a
+    failed clip (not written to the output folder, unless kept in another)."""
+
+    foot_slide_p95_m_s: float = 0.01
+    penetration_max_m: float = 0.002
+    joint_position_violations: int = 0
+    joint_velocity_violations: int = 0
+    feet_error_mean_m: float = 0.03
+
+    def __post_init__(self) -> None:
+        check(self, RetargetError, ">= 0", *(item.name for item in fields(self)))
+
+
+@dataclass(frozen=True)
 class RetargetConfig:
     kind: str = "walk"  # dataset label of the output
     # Landmarks are low-passed (zero-phase Butterworth, 2nd order) at this cut-off [Hz]; 0: off.
@@ -112,6 +127,7 @@ class RetargetConfig:
     weights: Weights = Weights()
     points: RobotPoints = RobotPoints()
     balance: Balance = Balance()
+    quality: CleanWalk = CleanWalk()  # [quality]: looser for a robot or take that needs it
     # Clips: files, folders or CMU clip ids (a recipe's list; the CLI's inputs are added).
     clips: tuple[str, ...] = field(default_factory=tuple)
     # The part of a clip that is retargeted, by clip name (file stem): [start, end] in seconds of

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from motionkit.retarget.bodies import avoided, capsules, segment_distance
+from motionkit.retarget.config import CleanWalk
 from motionkit.retarget.points import Point
 from motionkit.retarget.targets import SIDES, Targets
 from motionkit.robot import Robot
@@ -17,20 +18,6 @@ from motionkit.robot.geometry import Array
 from motionkit.robot.kinematics import frame_poses
 
 PENETRATION_LIMIT = 0.005  # m: a frame with a sole corner deeper than this counts as sinking
-
-
-@dataclass(frozen=True)
-class CleanWalk:
-    """The figures of a clean retargeted walk; a batch's summary flags a clip beyond one."""
-
-    foot_slide_p95_m_s: float = 0.01
-    penetration_max_m: float = 0.002
-    joint_position_violations: int = 0
-    joint_velocity_violations: int = 0
-    feet_error_mean_m: float = 0.03
-
-
-QUALITY = CleanWalk()
 
 
 @dataclass(frozen=True)
@@ -54,9 +41,14 @@ class Quality:
         kinds = {f.name: type(f.default) for f in fields(cls)}
         return cls(**{name: kind(metrics.get(name, 0)) for name, kind in kinds.items()})
 
-    def beyond(self, clean: CleanWalk = QUALITY) -> list[str]:
-        """The names of the figures above those of a clean walk (none for a clean clip)."""
-        return [name for name, limit in asdict(clean).items() if getattr(self, name) > limit]
+    def beyond(self, clean: CleanWalk) -> list[str]:
+        """Each figure above that of a clean walk, as 'name value > limit' (none for a clean
+        clip)."""
+        return [
+            f"{name} {getattr(self, name):.4g} > {limit:.4g}"
+            for name, limit in asdict(clean).items()
+            if getattr(self, name) > limit
+        ]
 
 
 class Kinematics:

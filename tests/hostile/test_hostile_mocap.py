@@ -14,16 +14,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 from hostile_support import no_hang, refused, snapshot
-from mocap_synth import amc_text, bvh_text, synth_body, synth_motion, write_asf
+from mocap_synth import TRACKABLE, amc_text, bvh_text, synth_body, synth_motion, write_asf
 
 from motionkit.cli import main
+from motionkit.dataset import read_metadata
 from motionkit.errors import MocapError
 from motionkit.mocap.bvh import read_bvh
 
 pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")  # no numpy noise either
 
 BONES = synth_body()
-VALUES = synth_motion(BONES)
+VALUES = synth_motion(BONES, TRACKABLE)  # the good take passes the quality gate
 GOOD_BVH = bvh_text(BONES, VALUES)
 GOOD_AMC = amc_text(BONES, VALUES)
 
@@ -176,7 +177,7 @@ AMC_CASES: dict[str, tuple[Callable[[], list[str] | str], tuple[str, ...]]] = {
         (r"07_03\.amc: frame 2 appears 2 times",),
     ),
     "frames missing": (
-        lambda: _renumber(_renumber(_amc_lines(), "5", "9"), "6", "10"),
+        lambda: [str(int(n) + 4) if n.isdigit() and int(n) >= 5 else n for n in _amc_lines()],
         (r"frames 5 to 8 are missing \(frame 9 follows 4\)",),
     ),
     "nan in a frame": (
@@ -186,7 +187,7 @@ AMC_CASES: dict[str, tuple[Callable[[], list[str] | str], tuple[str, ...]]] = {
     "radians in a degrees file": (
         _radians,
         (
-            r"read in degrees, but every rotation value lies within \+-pi \(largest 1\.046\)",
+            r"read in degrees, but every rotation value lies within \+-pi \(largest 1\.047\)",
             r"add ':RADIANS'",
         ),
     ),
@@ -256,3 +257,25 @@ def test_fifo_skeleton_is_refused_not_waited_on(
         argv = ["retarget", str(tmp_path / "fifo.bvh"), "--out", str(out), "--no-balance"]
         refused(argv, capsys, 2, r"fifo\.bvh: not a regular file or a folder")
     assert snapshot(out) == before
+
+
+def test_a_clip_beyond_the_quality_gate_fails_unless_kept_elsewhere(
+    out: Path, tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
+    """The good take's motion in 6 frames instead of 60: faster than the robot's joints may
+    move, so the IK's feet lag 4.3 cm behind their targets (the gate: 3 cm)."""
+    write_asf(tmp_path / "07.asf", BONES)
+    amc = _write(tmp_path, "07_03.amc", amc_text(BONES, synth_motion(BONES, 6)))
+    before = snapshot(out)
+    argv = ["retarget", str(amc), "--out", str(out), "--no-balance"]
+    pattern = r"07_03: failed: beyond the clean figures: feet_error_mean_m 0\.04\d+ > 0\.03"
+    refused(argv, capsys, 1, pattern, r"--keep-failed")
+    assert snapshot(out) == before
+    # asked to keep it: written with its figures to the other folder, OUT untouched
+    held = tmp_path / "held"
+    assert main([*argv, "--keep-failed", str(held)]) == 0
+    assert "1 clip(s) beyond the clean figures written to" in capsys.readouterr().out
+    assert snapshot(out) == before
+    metrics = read_metadata(held / "07_03.mcap")[0].metrics
+    assert 0.03 < metrics["feet_error_mean_m"] < 0.05
+    refused([*argv, "--keep-failed", str(out)], capsys, 2, r"give another folder than --out")

@@ -65,10 +65,16 @@ def synth_body() -> list[SynthBone]:
     return l_leg + r_leg + trunk + l_arm + r_arm
 
 
-def synth_files(folder: Path) -> dict[str, Path]:
-    """One synthetic body and motion as 07.asf + 07_03.amc and as 07_03.bvh in `folder`."""
+# Frames of a take the robot can follow: the motion of synth_motion spread over half a second
+# at 120 Hz, within the joints' velocity limits (in 6 frames the IK lags its feet 4 cm behind)
+TRACKABLE = 60
+
+
+def synth_files(folder: Path, frames: int = 6) -> dict[str, Path]:
+    """One synthetic body and motion of `frames` frames as 07.asf + 07_03.amc and as 07_03.bvh
+    in `folder`."""
     bones = synth_body()
-    values = synth_motion(bones)
+    values = synth_motion(bones, frames)
     amc = folder / "07_03.amc"
     amc.write_text(amc_text(bones, values))
     bvh = folder / "07_03.bvh"

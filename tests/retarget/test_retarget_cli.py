@@ -5,7 +5,7 @@ import re
 from pathlib import Path
 
 import pytest
-from mocap_synth import arms_down, mini_bvh, synth_files
+from mocap_synth import TRACKABLE, arms_down, mini_bvh, synth_files
 from test_fetch import Server
 from test_fetch import server as server  # the loopback server fixture
 
@@ -28,7 +28,7 @@ def files_under(folder: Path) -> list[str]:
 
 def test_retarget_bvh_and_amc_in_parallel(tmp_path: Path, capsys) -> None:
     (tmp_path / "in").mkdir()
-    take = synth_files(tmp_path / "in")
+    take = synth_files(tmp_path / "in", TRACKABLE)
     walk_bvh(tmp_path / "in" / "walk.bvh")
     take["bvh"].unlink()  # 07_03.amc (+ 07.asf) and walk.bvh: both formats, one folder
     out = tmp_path / "out"
@@ -154,7 +154,7 @@ def test_fetch_then_retarget_by_clip_id(
     capsys,
 ) -> None:
     monkeypatch.setenv("MOTIONKIT_CACHE", str(tmp_path / "cache"))
-    take = synth_files(tmp_path)
+    take = synth_files(tmp_path, TRACKABLE)
     server.files = {
         "/subjects/07/07.asf": take["asf"].read_bytes(),
         "/subjects/07/07_03.amc": take["amc"].read_bytes(),
@@ -172,3 +172,21 @@ def test_fetch_then_retarget_by_clip_id(
     assert meta.source.clip == "07_03" and "mocap.cs.cmu.edu" in meta.source.acknowledgement
     assert main(["mocap", "fetch", "07_04", "--base-url", server.base_url]) == 2
     assert "07_04" in capsys.readouterr().err
+
+
+def test_a_recipe_sets_the_quality_gate(tmp_path: Path, capsys) -> None:
+    take = synth_files(tmp_path)  # 6 frames: the feet lag 4.3 cm (the default gate: 3 cm)
+    take["bvh"].unlink()
+    recipe = tmp_path / "loose.toml"
+    recipe.write_text("[quality]\nfeet_error_mean_m = 0.05\n")
+    out = tmp_path / "out"
+    assert main(["retarget", str(take["amc"]), "--out", str(out), "--no-balance"]) == 1
+    assert "feet_error_mean_m 0.04326 > 0.03" in capsys.readouterr().err
+    assert files_under(out) == []
+    argv = ["retarget", str(take["amc"]), "--out", str(out), "--no-balance", "--config"]
+    assert main([*argv, str(recipe)]) == 0
+    assert "07_03.mcap" in files_under(out)
+    assert "feet_error_mean_m <= 0.05" in capsys.readouterr().out
+    recipe.write_text("[quality]\nfeet_error_mean_m = -1\n")
+    assert main([*argv, str(recipe)]) == 2
+    assert "feet_error_mean_m" in capsys.readouterr().err
