@@ -112,11 +112,15 @@ class RewardConfig:
     v_desired: float = 0.5  # m/s (the walking priors average 0.40-0.61 m/s)
     w_task: float = 0.5  # w_G
     w_style: float = 0.5  # w_S (0 when no prior is used)
+    # Not in the paper (0: off): each foot's swing while another foot is down, the clearance
+    # up to swing_height times the horizontal sole speed up to v_desired (both as shares)
+    w_swing: float = 0.0
+    swing_height: float = 0.08  # m: the walking prior's soles rise 8-9 cm in a step
 
     def __post_init__(self) -> None:
         check(self, TrainError, ">= 0", "w_target", "w_velocity", "w_facing", "w_thrust")
-        check(self, TrainError, ">= 0", "w_task", "w_style")
-        check(self, TrainError, "> 0", "c1", "c2", "v_desired")
+        check(self, TrainError, ">= 0", "w_task", "w_style", "w_swing")
+        check(self, TrainError, "> 0", "c1", "c2", "v_desired", "swing_height")
 
 
 @dataclass(frozen=True)

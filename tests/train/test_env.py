@@ -145,3 +145,22 @@ def test_fall_time_limit_and_waypoint_hit(impl_env, impl_fns, started) -> None:
     assert int(after.reached[2]) == 1 and int(info.episode_reached[2]) == 1
     jump = np.linalg.norm(np.asarray(after.target[2] - target[2]))
     assert 0.7 - 1e-4 <= jump <= 2.0 + 1e-4
+
+
+def test_the_swing_term_reads_each_soles_lift_and_speed(impl_env, started) -> None:
+    env, data = impl_env, jax.tree.map(lambda x: x[0], started.data)
+    left, right = np.asarray(env.sole_sites)[:2]
+    config = env.reward_config
+    lift = float(env.sole_clearance(data)[0])
+    # the left sole rises to 3/4 of the swing height (6 cm: off the ground) and moves at half
+    # v_desired; the right stays down and still: 0.75 * 0.5
+    step = 0.5 * config.v_desired * env.config.control_dt
+    moved = data.site_xpos.at[left, 2].add(0.75 * config.swing_height - lift)
+    moved = moved.at[left, 0].add(step)
+    after = data.replace(site_xpos=moved)
+    down = env.feet_down(after)
+    assert not bool(down[0]) and bool(down[1])
+    assert float(env._swing(data, after, down)) == pytest.approx(0.375, rel=1e-4)
+    # the same step with the right sole lifted too (no foot down) earns nothing
+    both = after.replace(site_xpos=moved.at[right, 2].add(0.2))
+    assert float(env._swing(data, both, env.feet_down(both))) == 0.0

@@ -79,3 +79,25 @@ def test_style_reward_is_scaled_minus_log_one_minus_sigmoid() -> None:
 
 def test_total_reward() -> None:
     assert float(rewards.total_reward(jnp.array(1.0), jnp.array(2.0), 0.5, 0.25)) == 1.0
+
+
+def test_swing_reward_counts_a_foot_that_steps_while_another_is_down() -> None:
+    down = jnp.array([False, True])
+    # the left foot 4 cm up (half of 8 cm) moving at 0.25 m/s (half of v_d 0.5): 0.25;
+    # the right foot is down and still: 0
+    value = rewards.swing_reward(jnp.array([0.04, 0.0]), jnp.array([0.25, 0.0]), down, 0.08, 0.5)
+    assert float(value) == pytest.approx(0.25, rel=1e-6)
+    # higher and faster than the scales count as 1; both feet in the air count nothing (a hop)
+    high = rewards.swing_reward(jnp.array([0.2, 0.0]), jnp.array([3.0, 0.0]), down, 0.08, 0.5)
+    assert float(high) == pytest.approx(1.0, rel=1e-6)
+    hop = rewards.swing_reward(
+        jnp.array([0.2, 0.2]), jnp.array([3.0, 3.0]), jnp.array([False, False]), 0.08, 0.5
+    )
+    assert float(hop) == 0.0
+
+
+def test_task_reward_adds_the_swing_term_by_its_weight() -> None:
+    terms = {"target": 0.5, "velocity": 0.5, "facing": 0.5, "thrust": 0.0, "swing": 0.5}
+    off, on = RewardConfig(), RewardConfig(w_swing=0.4)
+    assert float(rewards.task_reward(terms, off)) == pytest.approx(0.5, rel=1e-6)
+    assert float(rewards.task_reward(terms, on)) == pytest.approx(0.5 + 0.2, rel=1e-6)

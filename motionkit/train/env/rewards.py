@@ -7,9 +7,14 @@ Task terms of the paper, with x_d the waypoint and p the base position (world fr
     facing    cos of the angle between the robot's facing and the direction to the waypoint,
               both projected on the ground plane
     thrust    -sum_j (T_j / T_max)^2
+and one term of motionkit's own, off unless w_swing > 0:
+    swing     sum over feet of min(h_f / h_s, 1) min(|u_f| / v_d, 1) while another foot is
+              down, with h_f the sole's clearance and u_f its horizontal velocity: a foot that
+              moves forward high enough, as in a step (a shuffle's soles stay near the floor)
 Style: r_S = scale * -log(max(1 - sigmoid(D(chi_t, chi_t+1)), 1e-4)) = scale * min(softplus(D),
 -log 1e-4) (the AMP reference's form, scale 2).
-Total: w_G r_G + w_S r_S, with r_G = w_c target + w_v velocity + w_f facing + w_T thrust.
+Total: w_G r_G + w_S r_S, with r_G = w_c target + w_v velocity + w_f facing + w_T thrust
+(+ w_s swing).
 """
 
 from __future__ import annotations
@@ -50,6 +55,18 @@ def thrust_penalty(thrust: jax.Array, t_max: jax.Array | float) -> jax.Array:
     return -jnp.sum((thrust / t_max) ** 2)
 
 
+def swing_reward(
+    clearance: jax.Array, sole_speed: jax.Array, down: jax.Array, height: float, speed: float
+) -> jax.Array:
+    """Sum over feet of min(clearance / height, 1) * min(sole_speed / speed, 1), each foot
+    counted while some other foot is down. clearance [m], sole_speed [m/s] (horizontal) and
+    down (bool) are (feet,)."""
+    lift = jnp.clip(clearance / height, 0.0, 1.0)
+    pace = jnp.minimum(sole_speed / speed, 1.0)
+    others_down = (jnp.sum(down) - down) > 0
+    return jnp.sum(lift * pace * others_down)
+
+
 def task_terms(
     position: jax.Array,
     velocity: jax.Array,
@@ -75,6 +92,7 @@ def task_reward(terms: dict[str, jax.Array], config: RewardConfig) -> jax.Array:
         + config.w_velocity * terms["velocity"]
         + config.w_facing * terms["facing"]
         + config.w_thrust * terms["thrust"]
+        + config.w_swing * terms.get("swing", 0.0)
     )
 
 

@@ -47,7 +47,7 @@ from motionkit.train.env import terrain as terrain_lib
 from motionkit.train.env import waypoints
 from motionkit.train.env.jets import Jets
 from motionkit.train.env.mjx import mjx, put_on_backend
-from motionkit.train.env.rewards import task_reward, task_terms
+from motionkit.train.env.rewards import swing_reward, task_reward, task_terms
 from motionkit.train.spatial import facing_angle, quat_mul, quat_to_matrix
 
 HEIGHT_MAP = (7, 9)  # points along the facing direction x across it
@@ -258,11 +258,23 @@ class Env:
         `Jets.feature`)."""
         return self._in_layout(data, data.qpos[7:], self.jets.feature(thrust))
 
+    def sole_clearance(self, data: mjx.Data) -> jax.Array:
+        """(feet,) each sole's height above the terrain below it [m]."""
+        soles = data.site_xpos[self.sole_sites]
+        return soles[:, 2] - terrain_lib.height_at(self.terrain, soles[:, :2])
+
     def feet_down(self, data: mjx.Data) -> jax.Array:
         """(feet,) whether each sole is within AIRBORNE_CLEARANCE of the terrain."""
-        soles = data.site_xpos[self.sole_sites]
-        ground = terrain_lib.height_at(self.terrain, soles[:, :2])
-        return soles[:, 2] - ground <= AIRBORNE_CLEARANCE
+        return self.sole_clearance(data) <= AIRBORNE_CLEARANCE
+
+    def _swing(self, before: Any, data: Any, down: jax.Array) -> jax.Array:
+        """The swing term of the step from `before` to `data` (`rewards.swing_reward`)."""
+        moved = data.site_xpos[self.sole_sites, :2] - before.site_xpos[self.sole_sites, :2]
+        speed = jnp.linalg.norm(moved, axis=-1) / self.config.control_dt
+        config = self.reward_config
+        return swing_reward(
+            self.sole_clearance(data), speed, down, config.swing_height, config.v_desired
+        )
 
     def joint_targets(self, joint_actions: jax.Array) -> jax.Array:
         return jnp.clip(
@@ -402,6 +414,9 @@ class Env:
         terms = task_terms(
             base, velocity, facing, state.target, thrust, self.t_max, self.reward_config
         )
+        feet_down = self.feet_down(data)
+        if self.reward_config.w_swing > 0:
+            terms["swing"] = self._swing(state.data, data, feet_down)
         reward = task_reward(terms, self.reward_config)
         offset = (state.target - base)[:2]
         approach = jnp.dot(velocity[:2], offset) / (jnp.linalg.norm(offset) + 1e-6)
@@ -431,7 +446,6 @@ class Env:
         done = fell | truncated
         obs = self.observe(data, thrust, target)
         chi = self.features(data, thrust)
-        feet_down = self.feet_down(data)
         pose = self.reset_pose(k_reset, state.air_share, state.prior_share)
         info = StepInfo(
             task_reward=jnp.where(finite, reward, 0.0),
