@@ -29,6 +29,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from motionkit import recipes
+from motionkit.cli import recipe_argument
 from motionkit.dataset import read
 from motionkit.dataset.physics import check_physics
 from motionkit.dataset.tracking import track_windows
@@ -90,7 +91,7 @@ def main() -> None:
     parser.add_argument("clips", nargs="*", help="mocap files or folders (default: the recipe's)")
     parser.add_argument(
         "--recipe",
-        type=recipes.argument("retarget"),
+        type=recipe_argument("retarget"),
         default=recipes.find("retarget", "sample_walks"),
         help="retarget recipe: a file or a built-in name (default: sample_walks)",
     )

@@ -41,7 +41,7 @@ import time
 from dataclasses import replace
 
 from motionkit import recipes
-from motionkit.errors import TrajoptError
+from motionkit.core.errors import TrajoptError
 from motionkit.robot.model import ironcub
 from motionkit.trajopt.checks import check_solution
 from motionkit.trajopt.config import TrajoptConfig

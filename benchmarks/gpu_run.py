@@ -30,8 +30,8 @@ from pathlib import Path
 from typing import Any
 
 from motionkit import recipes
-from motionkit.errors import MotionkitError, TrainError
-from motionkit.outputs import strict_json, write_text_atomic
+from motionkit.core.errors import MotionkitError, TrainError
+from motionkit.files.outputs import strict_json, write_text_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
 CHECKPOINT = "checkpoint.msgpack"

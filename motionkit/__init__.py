@@ -4,7 +4,10 @@ URDF and spec), from raw data to a trained policy.
 Each stage is a subpackage with its front door in its docstring: motionkit.robot,
 motionkit.mocap, motionkit.retarget, motionkit.trajopt, motionkit.jet_ident, motionkit.dataset,
 motionkit.train, motionkit.viewer, motionkit.pipeline (imported on first use, e.g.
-`motionkit.trajopt.TrajoptConfig` after `import motionkit`).
+`motionkit.trajopt.TrajoptConfig` after `import motionkit`). Beside them: motionkit.cli (the
+command line), and the plumbing every stage shares, by role: motionkit.core (errors, value
+checks, TOML recipes, optional extras), motionkit.files (inputs, outputs, digests) and
+motionkit.runtime (executors, workers, progress, interrupts).
 """
 
 from __future__ import annotations
@@ -12,8 +15,8 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
-from motionkit.errors import MotionkitError
-from motionkit.jaxcpu import avoid_lapack_deadlock
+from motionkit.core.errors import MotionkitError
+from motionkit.runtime.jaxcpu import avoid_lapack_deadlock
 
 avoid_lapack_deadlock()
 

@@ -9,12 +9,12 @@ import re
 import signal
 import sys
 import threading
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from motionkit import __version__
-from motionkit.errors import MotionkitError, RobotModelError
-from motionkit.outputs import check_writable, write_text_atomic
+from motionkit import __version__, recipes
+from motionkit.core.errors import MotionkitError, RobotModelError
+from motionkit.files.outputs import check_writable, write_text_atomic
 from motionkit.recipes import STAGES as STAGE_CHOICES
 
 ROBOT_EPILOG = """\
@@ -23,8 +23,49 @@ is its URDF plus a spec TOML (--spec) shaped like motionkit/robot/ironcub.toml: 
 feet and sole corners, jet frames with their maximum thrust, standing posture."""
 
 
+_CLUSTER_ADDRESS = re.compile(r"^(?:ray://)?(?:[A-Za-z0-9._-]+|\[[0-9A-Fa-f:]+\]):(\d{1,5})$")
+
+
+def recipe_argument(stage: str) -> Callable[[str], Path]:
+    """An argparse `type` for `--config`: the recipe's path (a usage error when not found)."""
+
+    def parse(text: str) -> Path:
+        try:
+            return recipes.find(stage, text)
+        except recipes.RecipeError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+
+    return parse
+
+
+def cluster_address(text: str) -> str:
+    """argparse type of --cluster: `auto`, `HOST:PORT` or `ray://HOST:PORT`."""
+    match = _CLUSTER_ADDRESS.match(text.strip())
+    if text.strip() == "auto" or (match and 0 < int(match[1]) < 65536):
+        return text.strip()
+    raise argparse.ArgumentTypeError(
+        f"{text!r}: expected a Ray cluster address: auto, HOST:PORT or ray://HOST:PORT"
+    )
+
+
+def add_batch_options(parser: argparse.ArgumentParser, tasks: str) -> None:
+    """--cluster and --resume, for a command that runs many `tasks`."""
+    parser.add_argument(
+        "--cluster",
+        type=cluster_address,
+        metavar="ADDRESS",
+        help=f"run the {tasks} on a Ray cluster: auto, HOST:PORT or ray://HOST:PORT "
+        "(the [cluster] extra; --jobs is then the cluster's CPUs)",
+    )
+    parser.add_argument(
+        "--resume",
+        action="store_true",
+        help=f"keep the {tasks} whose outputs are up to date (same inputs, config and code)",
+    )
+
+
 def echo(line: str) -> None:
-    """The commands' progress callback (motionkit.progress): each line on stdout at once. At
+    """The commands' progress callback (motionkit.runtime.progress): each line on stdout at once. At
     module level, so that worker processes can take it too."""
     print(line, flush=True)
 

@@ -13,8 +13,7 @@ from typing import Any
 import pytest
 
 from motionkit import recipes
-from motionkit.dataset.physics import PhysicsConfig
-from motionkit.errors import (
+from motionkit.core.errors import (
     DatasetError,
     JetIdentError,
     MotionkitError,
@@ -24,6 +23,8 @@ from motionkit.errors import (
     TrainError,
     TrajoptError,
 )
+from motionkit.core.tomlfile import load
+from motionkit.dataset.physics import PhysicsConfig
 from motionkit.jet_ident.config import BenchConfig, JetIdentConfig, ModelConfig
 from motionkit.jet_ident.config import TrainConfig as JetTrainConfig
 from motionkit.pipeline.config import (
@@ -36,7 +37,6 @@ from motionkit.pipeline.config import (
 from motionkit.retarget.config import Balance, RetargetConfig, RobotPoints
 from motionkit.retarget.config import Weights as RetargetWeights
 from motionkit.robot.spec import LimitDefaults, RobotSpec, SimulationSpec
-from motionkit.tomlfile import load
 from motionkit.train.config import (
     AmpConfig,
     EnvConfig,
@@ -339,7 +339,7 @@ def test_command_line_overrides_are_checked() -> None:
 def test_to_toml_quotes_keys_toml_would_not_read_bare() -> None:
     import tomllib
 
-    from motionkit.tomlfile import to_toml
+    from motionkit.core.tomlfile import to_toml
 
     data = {"slowdown": 1.25, "trim": {"11_01": [0.0, 2.7], "take 3.bvh": [1.0, 2.0]}}
     text = to_toml(data)

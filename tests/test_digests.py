@@ -6,8 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from motionkit import digests, recipes
-from motionkit.digests import code_digest, import_closure
+from motionkit import recipes
+from motionkit.files import digests
+from motionkit.files.digests import code_digest, import_closure
 from motionkit.pipeline import stages
 from motionkit.pipeline.config import PipelineConfig
 
@@ -35,7 +36,7 @@ def test_the_closure_follows_imports_through_other_modules() -> None:
     assert {"__init__.py", "trajopt/__init__.py", "trajopt/solve.py"} <= names  # _LAZY: solve
     assert not any(n.startswith(("viewer/", "train/", "retarget/")) for n in names)
     retarget = {str(p.relative_to(digests.PACKAGE)) for p in import_closure(RETARGET)}
-    assert {"filters.py", "retarget/targets.py", "mocap/naming.py"} <= retarget
+    assert {"core/filters.py", "retarget/targets.py", "mocap/naming.py"} <= retarget
     assert "jet_ident/p250.py" not in retarget
 
 
@@ -49,7 +50,7 @@ def test_indirect_changes_change_the_digest_and_unrelated_ones_do_not(package: P
     edit(package / "mocap" / "naming.py")  # retarget reads mocap; trajopt does not
     after_naming = code_digest(*TRAJOPT), code_digest(*RETARGET)
     assert after_naming[0] == after_p250[0] and after_naming[1] != after_p250[1]
-    edit(package / "filters.py")  # both: retarget's targets and the dataset's physics
+    edit(package / "core" / "filters.py")  # both: retarget's targets and the dataset's physics
     after_filter = code_digest(*TRAJOPT), code_digest(*RETARGET)
     assert after_filter[0] != after_naming[0] and after_filter[1] != after_naming[1]
 
@@ -83,7 +84,7 @@ def test_pipeline_stages_and_resume_keys_see_indirect_changes(
     p250 = keys()
     assert p250[0]["trajopt"] != before[0]["trajopt"] and p250[2] != before[2]
     assert p250[0]["retarget"] == before[0]["retarget"] and p250[1] == before[1]
-    edit(package / "filters.py")  # the retarget targets' low-pass filter
+    edit(package / "core" / "filters.py")  # the retarget targets' low-pass filter
     filtered = keys()
     assert filtered[0]["retarget"] != p250[0]["retarget"] and filtered[1] != p250[1]
     edit(package / "viewer" / "__init__.py")

@@ -14,11 +14,9 @@ from pathlib import Path
 
 import pytest
 
-from motionkit.cli import main
-from motionkit.errors import RetargetError
-from motionkit.executors import InProcess, Processes, cluster_address, open_executor
-from motionkit.executors import _ray_session as ray_session
-from motionkit.outputs import (
+from motionkit.cli import cluster_address, main
+from motionkit.core.errors import RetargetError
+from motionkit.files.outputs import (
     MANIFEST,
     Manifest,
     claim_out,
@@ -26,6 +24,8 @@ from motionkit.outputs import (
     up_to_date,
     write_files,
 )
+from motionkit.runtime.executors import InProcess, Processes, open_executor
+from motionkit.runtime.executors import _ray_session as ray_session
 
 FAULTS = Path(__file__).resolve().parent / "faults"  # sitecustomize.py: kills tasks on request
 
@@ -111,7 +111,7 @@ class RefusingRay:
 def test_a_refused_ray_handshake_is_tried_again(refusals: int, monkeypatch) -> None:
     ray = RefusingRay(refusals)
     monkeypatch.setitem(sys.modules, "ray", ray)
-    monkeypatch.setattr("motionkit.executors._reachable", lambda address, error: None)
+    monkeypatch.setattr("motionkit.runtime.executors._reachable", lambda address, error: None)
     if refusals == 1:
         with ray_session("ray://head:10001", RetargetError) as cpus:
             assert cpus == 3

@@ -6,8 +6,8 @@ from pathlib import Path
 import pytest
 
 from motionkit.cli import main
-from motionkit.errors import TrajoptError
-from motionkit.extras import EXTRAS, require
+from motionkit.core.errors import TrajoptError
+from motionkit.core.extras import EXTRAS, require
 
 
 def test_require_names_the_missing_module_and_the_extra(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -39,7 +39,7 @@ def test_the_train_extra_is_checked_without_a_word_about_absent_backends() -> No
 
     pytest.importorskip("mujoco.mjx")
     code = (
-        "from motionkit.errors import TrainError; from motionkit.extras import require; "
+        "from motionkit.core.errors import TrainError; from motionkit.core.extras import require; "
         "require('train', 'training', TrainError); import mujoco.mjx; print('ok')"
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)

@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from motionkit.errors import MotionkitError
+from motionkit.core.errors import MotionkitError
 
 # package -> the names the README's Python examples use
 README_NAMES = {

@@ -7,7 +7,7 @@ import textwrap
 
 import pytest
 
-from motionkit import jaxcpu
+from motionkit.runtime import jaxcpu
 
 
 @pytest.mark.parametrize(

@@ -2,7 +2,7 @@
 
 import io
 
-from motionkit.progress import LineProgress
+from motionkit.runtime.progress import LineProgress
 
 
 class Terminal(io.StringIO):

@@ -6,7 +6,7 @@ import struct
 import threading
 import time
 
-from motionkit.workers import stop_workers, worker_pool
+from motionkit.runtime.workers import stop_workers, worker_pool
 
 
 def test_stopped_pool_ends_its_manager_thread_despite_half_a_result() -> None:

@@ -21,8 +21,8 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
+from motionkit.core.errors import DatasetError
 from motionkit.dataset.trajectory import ARRAY_FIELDS, Trajectory
-from motionkit.errors import DatasetError
 from motionkit.robot import Robot
 from motionkit.robot.geometry import from_rotation, quat_rotate_inverse, to_rotation
 from motionkit.robot.kinematics import frame_poses

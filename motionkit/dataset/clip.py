@@ -30,6 +30,7 @@ from mcap.writer import CompressionType, IndexType, Writer
 from scipy.spatial.transform import Rotation
 
 from motionkit import __version__
+from motionkit.core.errors import DatasetError
 from motionkit.dataset.messages import (
     MOTION_SCHEMA,
     TF_SCHEMA,
@@ -48,9 +49,8 @@ from motionkit.dataset.trajectory import (
     Trajectory,
     frame_shape,
 )
-from motionkit.errors import DatasetError
-from motionkit.inputs import open_input
-from motionkit.outputs import atomic_output
+from motionkit.files.inputs import open_input
+from motionkit.files.outputs import atomic_output
 from motionkit.robot import Robot
 from motionkit.robot.geometry import from_rotation
 from motionkit.robot.kinematics import joint_transforms

@@ -6,10 +6,10 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from motionkit.core.errors import DatasetError
 from motionkit.dataset.amp import AmpPairs, amp_pairs
 from motionkit.dataset.clip import read, read_metadata
 from motionkit.dataset.trajectory import Metadata, Trajectory
-from motionkit.errors import DatasetError
 from motionkit.robot import Robot
 
 

@@ -8,13 +8,13 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
+from motionkit.core.errors import DatasetError
 from motionkit.dataset.clip import read
 from motionkit.dataset.collection import MotionDataset, find_clips
 from motionkit.dataset.export import FORMATS, export
 from motionkit.dataset.physics import PhysicsConfig, check_physics
 from motionkit.dataset.validate import Check, read_sound, read_valid, validate_clip
-from motionkit.errors import DatasetError
-from motionkit.outputs import check_writable
+from motionkit.files.outputs import check_writable
 
 PHYSICS_HELP = (
     "a TOML file of physics-check settings and thresholds (keys of "

@@ -16,7 +16,7 @@ import numpy as np
 
 from motionkit.dataset.amp import resample
 from motionkit.dataset.trajectory import Trajectory
-from motionkit.outputs import atomic_output
+from motionkit.files.outputs import atomic_output
 
 FORMATS = ("npz", "amp-rsl-rl")
 

@@ -17,7 +17,7 @@ import numpy as np
 from google.protobuf import descriptor_pb2
 from google.protobuf.descriptor import FileDescriptor
 
-from motionkit.errors import DatasetError
+from motionkit.core.errors import DatasetError
 
 MOTION_SCHEMA = "motionkit.MotionChunk"
 TF_SCHEMA = "foxglove.FrameTransforms"

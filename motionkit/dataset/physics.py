@@ -20,15 +20,15 @@ import numpy as np
 from scipy.optimize import nnls
 from scipy.spatial import ConvexHull, QhullError
 
-from motionkit.checks import check
+from motionkit.core.checks import check
+from motionkit.core.errors import DatasetError
+from motionkit.core.extras import require
+from motionkit.core.filters import low_pass
+from motionkit.core.tomlfile import load, read_toml
 from motionkit.dataset.trajectory import Trajectory
-from motionkit.errors import DatasetError
-from motionkit.extras import require
-from motionkit.filters import low_pass
 from motionkit.robot import Robot
 from motionkit.robot.geometry import Array, to_rotation
 from motionkit.robot.spec import THRUST_AXIS
-from motionkit.tomlfile import load, read_toml
 
 GRAVITY = 9.81  # m/s^2, as in MuJoCo and pinocchio (the trajopt's 9.80665 differs by 0.03 %)
 # Moments are weighed against forces at this lever [m] in the least-squares split and the

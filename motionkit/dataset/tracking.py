@@ -15,9 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from motionkit.core.errors import DatasetError
+from motionkit.core.extras import require
 from motionkit.dataset.trajectory import Trajectory
-from motionkit.errors import DatasetError
-from motionkit.extras import require
 from motionkit.robot import Robot
 from motionkit.robot.geometry import to_rotation
 from motionkit.robot.mjcf import standing_height

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from motionkit import __version__
-from motionkit.errors import DatasetError
+from motionkit.core.errors import DatasetError
 
 KINDS = ("walk", "run", "stand", "takeoff", "flight", "landing", "jump", "rollout", "other")
 GENERATORS = ("retarget", "trajopt", "rollout", "synthetic", "import")

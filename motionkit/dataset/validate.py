@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
+from motionkit.core.errors import DatasetError, MotionkitError
 from motionkit.dataset.clip import corner_names, read
 from motionkit.dataset.physics import PhysicsConfig, check_physics
 from motionkit.dataset.trajectory import Trajectory
-from motionkit.errors import DatasetError, MotionkitError
 from motionkit.robot import Robot
 from motionkit.robot.geometry import angular_velocity
 

@@ -20,8 +20,8 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from motionkit.errors import JetIdentError
-from motionkit.extras import require
+from motionkit.core.errors import JetIdentError
+from motionkit.core.extras import require
 from motionkit.jet_ident.benchlog import BenchLog, parse_log, read_log, write_log
 from motionkit.jet_ident.config import BenchConfig, JetIdentConfig, ModelConfig, TrainConfig
 

@@ -18,7 +18,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.signal import savgol_filter
 
-from motionkit.errors import JetIdentError
+from motionkit.core.errors import JetIdentError
 from motionkit.jet_ident.benchlog import BenchLog
 from motionkit.jet_ident.integrate import simulate
 from motionkit.jet_ident.p250 import THRUST_SCALE, regressors, thrust_acceleration

@@ -30,9 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
-from motionkit.errors import JetIdentError
-from motionkit.inputs import read_text
-from motionkit.outputs import write_text_atomic
+from motionkit.core.errors import JetIdentError
+from motionkit.files.inputs import read_text
+from motionkit.files.outputs import write_text_atomic
 
 COLUMNS = ("time_s", "throttle_pct", "thrust_n")
 # each column's quantity and the spellings of its unit

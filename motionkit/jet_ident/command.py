@@ -6,13 +6,12 @@ import argparse
 import json
 from pathlib import Path
 
-from motionkit.cli import echo
-from motionkit.errors import JetIdentError
-from motionkit.extras import require
+from motionkit.cli import echo, recipe_argument
+from motionkit.core.errors import JetIdentError
+from motionkit.core.extras import require
+from motionkit.files.outputs import check_out
 from motionkit.jet_ident.benchlog import COLUMNS, read_log
 from motionkit.jet_ident.config import JetIdentConfig
-from motionkit.outputs import check_out
-from motionkit.recipes import argument
 
 # The handlers import the JAX modules when they run: `motionkit` works without the extra.
 
@@ -55,7 +54,7 @@ def add_commands(stages: argparse._SubParsersAction) -> None:
     simulate.add_argument("--duration", type=float, help="seconds (default: [bench] duration_s)")
     simulate.add_argument(
         "--config",
-        type=argument("jet_ident"),
+        type=recipe_argument("jet_ident"),
         help="recipe: a TOML file or a built-in name (default: defaults)",
     )
     simulate.set_defaults(handler=_simulate)
@@ -78,7 +77,7 @@ def add_commands(stages: argparse._SubParsersAction) -> None:
     fit.add_argument("--out", type=Path, required=True, help="output folder")
     fit.add_argument(
         "--config",
-        type=argument("jet_ident"),
+        type=recipe_argument("jet_ident"),
         help="recipe: a TOML file or a built-in name, e.g. p250",
     )
     fit.set_defaults(handler=_fit)

@@ -13,8 +13,9 @@ from typing import Any
 
 import numpy as np
 
-from motionkit.checks import check, refusal
-from motionkit.errors import JetIdentError
+from motionkit.core.checks import check, refusal
+from motionkit.core.errors import JetIdentError
+from motionkit.core.tomlfile import load, read_toml, to_toml
 from motionkit.jet_ident.p250 import (
     P220_RATE_FORM,
     P250_COEFFS,
@@ -23,7 +24,6 @@ from motionkit.jet_ident.p250 import (
     UNSCALED,
     rate_form_coeffs,
 )
-from motionkit.tomlfile import load, read_toml, to_toml
 
 PLANTS = ("p250", "rate_form", "spool")
 PRIORS = ("second_order", "first_order", "none")

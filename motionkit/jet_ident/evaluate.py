@@ -24,10 +24,10 @@ from typing import Any, Protocol
 import jax.numpy as jnp
 import numpy as np
 
-from motionkit.errors import JetIdentError
+from motionkit.core.errors import JetIdentError
+from motionkit.files.outputs import atomic_output
 from motionkit.jet_ident.benchlog import BenchLog
 from motionkit.jet_ident.step import LSTMThrust, free_run_jit
-from motionkit.outputs import atomic_output
 
 HOLD_S, STEP_PCT = 4.0, 15.0
 

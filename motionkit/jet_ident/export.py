@@ -32,12 +32,12 @@ from typing import Any
 import jax.numpy as jnp
 import numpy as np
 
-from motionkit.errors import JetIdentError
-from motionkit.inputs import read_bytes
+from motionkit.core.errors import JetIdentError
+from motionkit.files.inputs import read_bytes
+from motionkit.files.outputs import atomic_output
 from motionkit.jet_ident.baselines import FirstOrderLag, GreyBox
 from motionkit.jet_ident.model import FIRST_ORDER, SECOND_ORDER, Normalisation
 from motionkit.jet_ident.step import GreyBoxThrust, LSTMThrust
-from motionkit.outputs import atomic_output
 
 FORMAT, VERSIONS = "motionkit.jet_ident.lstm", (1, 2)
 ARRAYS = ("w_input", "w_hidden", "bias", "w_out", "b_out")

@@ -10,7 +10,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from motionkit.errors import JetIdentError
+from motionkit.core.errors import JetIdentError
+from motionkit.files.outputs import check_out, claim_out, write_text_atomic
 from motionkit.jet_ident.baselines import FirstOrderLag, GreyBox, fit_first_order, fit_grey_box
 from motionkit.jet_ident.benchlog import BenchLog, read_log
 from motionkit.jet_ident.config import JetIdentConfig
@@ -24,8 +25,7 @@ from motionkit.jet_ident.evaluate import (
 )
 from motionkit.jet_ident.export import baselines_metadata, save_model, selected
 from motionkit.jet_ident.train import TrainResult, split_logs, train_lstm
-from motionkit.outputs import check_out, claim_out, write_text_atomic
-from motionkit.progress import Progress, silent
+from motionkit.runtime.progress import Progress, silent
 
 SMOOTHING_S = (0.3, 0.5, 0.7, 1.0)  # baseline derivative filters tried; validation picks one
 LSTM, GREY_BOX, FIRST_ORDER = "LSTM", "grey-box 2nd order", "first-order lag"

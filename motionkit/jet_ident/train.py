@@ -23,13 +23,13 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from motionkit.errors import JetIdentError
+from motionkit.core.errors import JetIdentError
 from motionkit.jet_ident.baselines import fit_grey_box, smoothed
 from motionkit.jet_ident.benchlog import BenchLog
 from motionkit.jet_ident.config import ModelConfig, TrainConfig
 from motionkit.jet_ident.model import Normalisation, first_order_terms, init_variables, rollout
 from motionkit.jet_ident.step import LSTMThrust, free_run_jit
-from motionkit.progress import Progress, silent
+from motionkit.runtime.progress import Progress, silent
 
 Segment = tuple[np.ndarray, np.ndarray]  # (thrust [N], throttle [%]) of consecutive samples
 PRIOR_SMOOTHING_S = 0.5  # the derivative filter of the priors' least squares

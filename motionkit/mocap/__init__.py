@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from motionkit.errors import MocapError
+from motionkit.core.errors import MocapError
 from motionkit.mocap.naming import LANDMARKS, MappingSource, mapping_template
 from motionkit.mocap.skeleton import UNITS, MocapClip, Skeleton
 

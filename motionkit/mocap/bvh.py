@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from motionkit.errors import MocapError
-from motionkit.inputs import read_text
+from motionkit.core.errors import MocapError
+from motionkit.files.inputs import read_text
 from motionkit.mocap.naming import MappingSource
 from motionkit.mocap.skeleton import (
     MAX_RATE,

@@ -19,10 +19,10 @@ from pathlib import Path
 from typing import IO, NamedTuple, Protocol
 
 from motionkit import __version__
-from motionkit.errors import MocapError
-from motionkit.outputs import atomic_output
-from motionkit.progress import LineProgress
+from motionkit.core.errors import MocapError
+from motionkit.files.outputs import atomic_output
 from motionkit.robot.model import cache_dir
+from motionkit.runtime.progress import LineProgress
 
 CMU_BASE_URL = "https://mocap.cs.cmu.edu"
 _CHUNK = 64 * 1024
@@ -242,7 +242,7 @@ class _Bar(Protocol):
 
 
 class _LineBar:
-    """Fallback progress bar (motionkit.progress: a rewritten line on a terminal)."""
+    """Fallback progress bar (motionkit.runtime.progress: a rewritten line on a terminal)."""
 
     def __init__(self, name: str, total: int | None) -> None:
         self.total, self.received = total, 0

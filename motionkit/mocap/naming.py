@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 
-from motionkit.errors import MocapError
-from motionkit.inputs import read_text
+from motionkit.core.errors import MocapError
+from motionkit.files.inputs import read_text
 
 LANDMARKS: tuple[str, ...] = (
     "pelvis",

@@ -19,7 +19,7 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
-from motionkit.errors import MocapError
+from motionkit.core.errors import MocapError
 from motionkit.mocap import naming
 
 Array = npt.NDArray[np.float64]

@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from motionkit.errors import MocapError
+from motionkit.core.errors import MocapError
+from motionkit.files.outputs import atomic_output
 from motionkit.mocap.skeleton import UNITS, Y_UP_TO_Z_UP, MocapClip
-from motionkit.outputs import atomic_output
 
 
 def write_bvh(path: str | Path, clip: MocapClip, *, order: str = "ZYX", units: str = "cm") -> Path:

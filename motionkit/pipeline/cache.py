@@ -13,8 +13,8 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from motionkit.errors import PipelineError
-from motionkit.outputs import foreign_entries, record_names, write_text_atomic
+from motionkit.core.errors import PipelineError
+from motionkit.files.outputs import foreign_entries, record_names, write_text_atomic
 
 __all__ = ["STAGING", "Outcome", "run_cached"]
 

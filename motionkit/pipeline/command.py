@@ -7,13 +7,11 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
-from motionkit.cli import echo
-from motionkit.errors import PipelineError
-from motionkit.executors import cluster_address
-from motionkit.extras import require
+from motionkit.cli import cluster_address, echo, recipe_argument
+from motionkit.core.errors import PipelineError
+from motionkit.core.extras import require
 from motionkit.pipeline.config import PipelineConfig
 from motionkit.pipeline.runner import STAGE_NAMES, run_pipeline
-from motionkit.recipes import argument
 from motionkit.robot import load_robot
 
 DEFAULT_CONFIG = "tiny_cpu"
@@ -59,7 +57,7 @@ def add_commands(
     )
     parser.add_argument(
         "--config",
-        type=argument("pipeline"),
+        type=recipe_argument("pipeline"),
         default=DEFAULT_CONFIG,
         help=f"pipeline recipe: a TOML file or a built-in name (default: {DEFAULT_CONFIG})",
     )

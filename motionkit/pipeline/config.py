@@ -7,9 +7,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from motionkit import recipes
-from motionkit.checks import check
-from motionkit.errors import PipelineError
-from motionkit.tomlfile import load, read_toml
+from motionkit.core.checks import check
+from motionkit.core.errors import PipelineError
+from motionkit.core.tomlfile import load, read_toml
 
 
 @dataclass(frozen=True)

@@ -7,13 +7,13 @@ import json
 import time
 from pathlib import Path
 
-from motionkit.errors import MotionkitError, PipelineError
-from motionkit.outputs import claim_out, write_text_atomic
+from motionkit.core.errors import MotionkitError, PipelineError
+from motionkit.files.outputs import claim_out, write_text_atomic
 from motionkit.pipeline.cache import STAGING, Outcome
 from motionkit.pipeline.config import PipelineConfig
 from motionkit.pipeline.stages import STAGE_FOLDERS, STAGES, Context, DryRun
-from motionkit.progress import Progress, silent
 from motionkit.robot import Robot
+from motionkit.runtime.progress import Progress, silent
 
 STAGE_NAMES = tuple(name for name, _ in STAGES)
 # what a run writes in OUT: the stage folders, the cache records, the staging area, the summary

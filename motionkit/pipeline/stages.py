@@ -10,13 +10,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from motionkit.digests import code_digest, digest, file_digest, versions
-from motionkit.errors import PipelineError
-from motionkit.outputs import write_text_atomic
+from motionkit.core.errors import PipelineError
+from motionkit.files.digests import code_digest, digest, file_digest, versions
+from motionkit.files.outputs import write_text_atomic
 from motionkit.pipeline.cache import Outcome, run_cached
 from motionkit.pipeline.config import PipelineConfig
-from motionkit.progress import Progress, silent
 from motionkit.robot import Robot
+from motionkit.runtime.progress import Progress, silent
 
 JAX = ("jax", "jaxlib", "flax", "optax")
 # the modules the jet-ident stage's work runs (the key hashes them and what they import)

@@ -3,12 +3,10 @@ found by name (`--config walk_to_fly`) or taken as a path."""
 
 from __future__ import annotations
 
-import argparse
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from motionkit.errors import MotionkitError
+from motionkit.core.errors import MotionkitError
 
 ROOT = Path(__file__).resolve().parent
 STAGES = ("retarget", "trajopt", "jet_ident", "train", "pipeline")
@@ -56,18 +54,6 @@ def find(stage: str, text: str | Path) -> Path:
                 return recipe.path
     names = ", ".join(r.name for r in builtin(stage))
     raise RecipeError(f"{text}: no such file, nor a built-in {stage} recipe ({names})")
-
-
-def argument(stage: str) -> Callable[[str], Path]:
-    """An argparse `type` for `--config`: the recipe's path (a usage error when not found)."""
-
-    def parse(text: str) -> Path:
-        try:
-            return find(stage, text)
-        except RecipeError as exc:
-            raise argparse.ArgumentTypeError(str(exc)) from None
-
-    return parse
 
 
 def sample_mocap() -> Path:

@@ -10,7 +10,7 @@
     results = run_retarget(resolve_inputs(["walks/", "02_01"]), out, RetargetConfig(), 2, robot)
 
 `retarget` is one clip in memory; `retarget_clip` / `retarget_all` (on an executor of
-motionkit.executors) read and write MCAP clips from `resolve_inputs`' ClipInput list, each a
+motionkit.runtime.executors) read and write MCAP clips from `resolve_inputs`' ClipInput list, each a
 ClipResult; `run_retarget` adds the summary file, and gives the lines `motionkit retarget` prints
 (progress, quality table) to its `progress` callback: nothing is shown unless one is passed
 (`progress=print`). A robot other than iRonCub names its joints in the config's `points`. The IK

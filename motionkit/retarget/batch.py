@@ -12,15 +12,15 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from motionkit.core.errors import MotionkitError, RetargetError
 from motionkit.dataset import Source
-from motionkit.digests import code_digest, digest, file_digest, versions
-from motionkit.errors import MotionkitError, RetargetError
-from motionkit.executors import Executor, open_executor
-from motionkit.outputs import claimed_out, inside, up_to_date, write_files, write_text_atomic
-from motionkit.progress import LineProgress, Progress, silent
+from motionkit.files.digests import code_digest, digest, file_digest, versions
+from motionkit.files.outputs import claimed_out, inside, up_to_date, write_files, write_text_atomic
 from motionkit.retarget.config import CleanWalk, RetargetConfig
 from motionkit.retarget.metrics import Quality
 from motionkit.robot import Robot, ironcub
+from motionkit.runtime.executors import Executor, open_executor
+from motionkit.runtime.progress import LineProgress, Progress, silent
 
 MOCAP_SUFFIXES = (".bvh", ".amc")
 SUMMARY = "retarget_summary.json"
@@ -261,7 +261,7 @@ def retarget_all(
         clips: the clips, their names distinct (`check_names`).
         out: the output folder (claimed by the caller: `run_retarget`).
         config: the retargeting config.
-        executor: where the clips run (motionkit.executors.open_executor).
+        executor: where the clips run (motionkit.runtime.executors.open_executor).
         robot: the robot to retarget onto.
         report: receives (result, clips done, clips in all) as each clip ends.
         resume: keep the clips whose output is up to date (`clip_key`).
@@ -341,7 +341,7 @@ def check_names(clips: list[ClipInput]) -> None:
 
 
 class _FrameBar:
-    """Frames done of one clip (motionkit.progress: a rewritten line on a terminal)."""
+    """Frames done of one clip (motionkit.runtime.progress: a rewritten line on a terminal)."""
 
     def __init__(self, name: str) -> None:
         self.line = LineProgress(name)

@@ -9,12 +9,10 @@ from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
-from motionkit.cli import echo
-from motionkit.errors import RetargetError
-from motionkit.executors import add_batch_options
-from motionkit.extras import require
-from motionkit.outputs import check_out
-from motionkit.recipes import argument
+from motionkit.cli import add_batch_options, echo, recipe_argument
+from motionkit.core.errors import RetargetError
+from motionkit.core.extras import require
+from motionkit.files.outputs import check_out
 from motionkit.retarget.batch import ClipResult, clip_line, resolve_inputs, run_retarget
 from motionkit.retarget.config import RetargetConfig
 from motionkit.robot import load_robot
@@ -58,7 +56,7 @@ def add_commands(
     retarget.add_argument("--out", type=Path, required=True, help="output folder")
     retarget.add_argument(
         "--config",
-        type=argument("retarget"),
+        type=recipe_argument("retarget"),
         help="recipe: a TOML file or a built-in name (default: the defaults)",
     )
     retarget.add_argument(

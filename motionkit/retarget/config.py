@@ -6,9 +6,9 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from motionkit.checks import check
-from motionkit.errors import RetargetError
-from motionkit.tomlfile import load, read_toml
+from motionkit.core.checks import check
+from motionkit.core.errors import RetargetError
+from motionkit.core.tomlfile import load, read_toml
 
 
 @dataclass(frozen=True)

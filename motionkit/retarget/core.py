@@ -12,9 +12,9 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from motionkit.core.errors import RetargetError
 from motionkit.dataset import Metadata, Source, Trajectory
 from motionkit.dataset.physics import PhysicsReport, check_physics
-from motionkit.errors import RetargetError
 from motionkit.mocap.naming import skeleton
 from motionkit.retarget.balance import Pass, balance
 from motionkit.retarget.config import RetargetConfig

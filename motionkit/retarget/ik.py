@@ -10,8 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from motionkit.errors import RetargetError
-from motionkit.extras import require
+from motionkit.core.errors import RetargetError
+from motionkit.core.extras import require
 from motionkit.retarget.bodies import avoided, capsules, host_link, with_collision_cylinders
 from motionkit.retarget.config import RetargetConfig
 from motionkit.retarget.points import Point
@@ -20,7 +20,7 @@ from motionkit.retarget.tasks import GroundGuard, Task, make_tasks
 from motionkit.robot import Robot
 from motionkit.robot.geometry import Array
 from motionkit.robot.model import cached_file
-from motionkit.silence import quiet_c_output
+from motionkit.runtime.silence import quiet_c_output
 
 
 def kinematic_urdf(robot: Robot) -> str:

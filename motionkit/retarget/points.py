@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from motionkit.errors import RetargetError
+from motionkit.core.errors import RetargetError
 from motionkit.retarget.config import RobotPoints
 from motionkit.robot import Robot
 from motionkit.robot.geometry import Array, invert

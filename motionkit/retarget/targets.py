@@ -18,8 +18,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from motionkit.errors import RetargetError
-from motionkit.filters import low_pass
+from motionkit.core.errors import RetargetError
+from motionkit.core.filters import low_pass
 from motionkit.retarget.config import RetargetConfig
 from motionkit.retarget.points import Point
 from motionkit.robot import Robot

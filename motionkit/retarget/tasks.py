@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from motionkit.errors import RetargetError
+from motionkit.core.errors import RetargetError
 from motionkit.retarget.config import RetargetConfig, Weights
 from motionkit.retarget.points import Point
 from motionkit.retarget.targets import SIDES, Targets

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from motionkit.errors import RobotModelError
+from motionkit.core.errors import RobotModelError
 from motionkit.robot.geometry import Array
 from motionkit.robot.urdf import Joint, RobotModel
 

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from motionkit import __version__
-from motionkit.errors import RobotModelError
+from motionkit.core.errors import RobotModelError
 from motionkit.robot.geometry import Array, matrix_to_quat
 from motionkit.robot.spec import THRUST_AXIS, FootSpec
 from motionkit.robot.urdf import Inertial, Joint, RobotModel

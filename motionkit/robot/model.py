@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 
 from motionkit import __version__
-from motionkit.errors import RobotModelError
-from motionkit.outputs import inside, write_text_atomic
+from motionkit.core.errors import RobotModelError
+from motionkit.files.outputs import inside, write_text_atomic
 from motionkit.robot.spec import THRUST_AXIS, RobotSpec
 from motionkit.robot.urdf import RobotModel, load_urdf
 

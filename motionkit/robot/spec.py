@@ -16,9 +16,9 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-from motionkit.checks import check, refusal
-from motionkit.errors import RobotModelError
-from motionkit.tomlfile import load, read_toml
+from motionkit.core.checks import check, refusal
+from motionkit.core.errors import RobotModelError
+from motionkit.core.tomlfile import load, read_toml
 
 # Thrust acts along this axis of every jet frame (the frame origin is at the nozzle).
 THRUST_AXIS = (0.0, 0.0, -1.0)

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from motionkit.errors import RobotModelError
-from motionkit.inputs import read_text
+from motionkit.core.errors import RobotModelError
+from motionkit.files.inputs import read_text
 from motionkit.robot.geometry import Array, axis_angle, make_transform, matrix_to_rpy
 
 MOVABLE = ("revolute", "continuous", "prismatic")

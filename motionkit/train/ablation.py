@@ -9,10 +9,10 @@ import json
 from pathlib import Path
 from typing import Any
 
-from motionkit.errors import TrainError
-from motionkit.outputs import atomic_output, claim_out, write_text_atomic
-from motionkit.progress import Progress, silent
+from motionkit.core.errors import TrainError
+from motionkit.files.outputs import atomic_output, claim_out, write_text_atomic
 from motionkit.robot import Robot
+from motionkit.runtime.progress import Progress, silent
 from motionkit.train.config import TrainConfig
 
 SETTINGS = {

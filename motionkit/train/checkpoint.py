@@ -16,8 +16,8 @@ import jax
 import numpy as np
 from flax import serialization
 
-from motionkit.errors import TrainError
-from motionkit.outputs import atomic_output, claim_out
+from motionkit.core.errors import TrainError
+from motionkit.files.outputs import atomic_output, claim_out
 from motionkit.train.learner import Learner
 
 NAME = "checkpoint.msgpack"

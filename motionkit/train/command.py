@@ -7,9 +7,9 @@ from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
-from motionkit.errors import TrainError
-from motionkit.outputs import check_out
-from motionkit.recipes import argument
+from motionkit.cli import recipe_argument
+from motionkit.core.errors import TrainError
+from motionkit.files.outputs import check_out
 from motionkit.robot import load_robot
 from motionkit.train.runtime import enable_compile_cache, require_train_extra
 
@@ -121,7 +121,7 @@ def _common(
     # `train` checks --config and --out itself, so that `train ablation --config ...` parses
     parser.add_argument(
         "--config",
-        type=argument("train"),
+        type=recipe_argument("train"),
         required=required,
         help="recipe: a TOML file or a built-in name (required)",
     )

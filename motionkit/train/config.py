@@ -11,9 +11,9 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from motionkit.checks import check, refusal
-from motionkit.errors import TrainError
-from motionkit.tomlfile import load, read_toml, to_toml
+from motionkit.core.checks import check, refusal
+from motionkit.core.errors import TrainError
+from motionkit.core.tomlfile import load, read_toml, to_toml
 
 SCENARIOS = ("flat", "terrain")
 JETS = ("ideal", "lstm", "grey_box", "selected")  # the last three: models of jet_model

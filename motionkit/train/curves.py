@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from motionkit.errors import TrainError
-from motionkit.outputs import atomic_output
+from motionkit.core.errors import TrainError
+from motionkit.files.outputs import atomic_output
 
 # panel title -> the columns it draws (train.csv names; eval.csv has them with "eval_")
 PANELS: dict[str, tuple[str, ...]] = {

@@ -15,7 +15,7 @@ from __future__ import annotations
 import jax
 from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
-from motionkit.errors import TrainError
+from motionkit.core.errors import TrainError
 
 AXIS = "envs"  # the mesh axis the environment batch is split along
 FORCE_HOST = "XLA_FLAGS=--xla_force_host_platform_device_count=N"

@@ -30,7 +30,7 @@ from flax import struct
 from jax.sharding import Mesh
 from jax.sharding import PartitionSpec as P
 
-from motionkit.errors import TrainError
+from motionkit.core.errors import TrainError
 from motionkit.train.amp import PriorData, ReplayBuffer
 from motionkit.train.config import TrainConfig
 from motionkit.train.devices import AXIS, batch_sharding, make_mesh, replicated

@@ -27,9 +27,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from motionkit.core.errors import TrainError
 from motionkit.dataset import write
-from motionkit.errors import TrainError
-from motionkit.outputs import check_out, claim_out
+from motionkit.files.outputs import check_out, claim_out
 from motionkit.robot import Robot
 from motionkit.train.env import Env, waypoints
 from motionkit.train.env import terrain as terrain_lib

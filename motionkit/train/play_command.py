@@ -8,9 +8,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from motionkit.errors import TrainError, ViewerError
-from motionkit.extras import require
-from motionkit.outputs import check_out, inside
+from motionkit.core.errors import TrainError, ViewerError
+from motionkit.core.extras import require
+from motionkit.files.outputs import check_out, inside
 from motionkit.robot import load_robot
 from motionkit.train.runtime import require_train_extra
 

@@ -24,8 +24,8 @@ import jax.numpy as jnp
 import numpy as np
 from flax import serialization
 
-from motionkit.errors import TrainError
-from motionkit.outputs import check_out, claim_out, write_files
+from motionkit.core.errors import TrainError
+from motionkit.files.outputs import check_out, claim_out, write_files
 from motionkit.robot import Robot
 from motionkit.train.checkpoint import NAME as CHECKPOINT
 from motionkit.train.config import TrainConfig

@@ -6,12 +6,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from motionkit.core.errors import DatasetError, TrainError
 from motionkit.dataset import MotionDataset
 from motionkit.dataset.amp import resample
 from motionkit.dataset.collection import find_clips
 from motionkit.dataset.trajectory import Trajectory
 from motionkit.dataset.validate import read_valid
-from motionkit.errors import DatasetError, TrainError
 from motionkit.robot import Robot
 from motionkit.robot.geometry import quat_rotate_inverse, to_rotation
 from motionkit.robot.kinematics import frame_poses

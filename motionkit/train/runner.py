@@ -18,10 +18,10 @@ from typing import Any
 
 import jax
 
-from motionkit.errors import TrainError
-from motionkit.outputs import check_out, claim_out, write_json_atomic, write_text_atomic
-from motionkit.progress import Progress, silent
+from motionkit.core.errors import TrainError
+from motionkit.files.outputs import check_out, claim_out, write_json_atomic, write_text_atomic
 from motionkit.robot import Robot
+from motionkit.runtime.progress import Progress, silent
 from motionkit.train.amp import PriorData
 from motionkit.train.checkpoint import NAME, load_checkpoint, save_checkpoint
 from motionkit.train.config import RunConfig, TrainConfig
@@ -70,7 +70,7 @@ def make_env(config: TrainConfig, robot: Robot, prior: PriorData | None = None) 
     """
     jet_model = None
     if config.env.jet != "ideal":
-        from motionkit.errors import JetIdentError
+        from motionkit.core.errors import JetIdentError
         from motionkit.jet_ident.export import load_jet
 
         try:

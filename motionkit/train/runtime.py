@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import os
 
-from motionkit.errors import TrainError
-from motionkit.extras import require
+from motionkit.core.errors import TrainError
+from motionkit.core.extras import require
 
 
 def require_train_extra(what: str = "train") -> None:

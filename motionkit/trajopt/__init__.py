@@ -22,8 +22,8 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from motionkit.errors import TrajoptError
-from motionkit.extras import require
+from motionkit.core.errors import TrajoptError
+from motionkit.core.extras import require
 from motionkit.trajopt.config import SCENARIOS, TrajoptConfig
 from motionkit.trajopt.library import LibrarySolve, read_library
 from motionkit.trajopt.runner import (

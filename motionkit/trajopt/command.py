@@ -12,11 +12,9 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from motionkit.cli import echo
-from motionkit.errors import TrajoptError
-from motionkit.executors import add_batch_options
-from motionkit.extras import require
-from motionkit.recipes import argument
+from motionkit.cli import add_batch_options, echo, recipe_argument
+from motionkit.core.errors import TrajoptError
+from motionkit.core.extras import require
 from motionkit.robot import load_robot
 from motionkit.trajopt.config import SCENARIOS, TrajoptConfig
 from motionkit.trajopt.runner import (
@@ -54,11 +52,13 @@ def add_commands(
     )
     parser.add_argument("--scenario", choices=SCENARIOS, help="required unless --library")
     parser.add_argument(
-        "--library", type=argument("trajopt"), help="a TOML naming many solves (built-in: library)"
+        "--library",
+        type=recipe_argument("trajopt"),
+        help="a TOML naming many solves (built-in: library)",
     )
     parser.add_argument(
         "--config",
-        type=argument("trajopt"),
+        type=recipe_argument("trajopt"),
         help="recipe: a TOML file or a built-in name (default: defaults)",
     )
     parser.add_argument("--out", type=Path, required=True, help="output folder")

@@ -10,9 +10,9 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from motionkit.checks import check, refusal
-from motionkit.errors import TrajoptError
-from motionkit.tomlfile import load, read_toml
+from motionkit.core.checks import check, refusal
+from motionkit.core.errors import TrajoptError
+from motionkit.core.tomlfile import load, read_toml
 
 SCENARIOS = ("takeoff", "walk_to_fly", "flight_to_waypoint", "landing", "jet_jump")
 STARTS = ("stand", "hover")
@@ -217,7 +217,7 @@ def check_ipopt_options(options: dict[str, Any], source: str) -> None:
         import casadi as cs
     except ImportError:
         return
-    from motionkit.silence import quiet_c_output
+    from motionkit.runtime.silence import quiet_c_output
 
     x = cs.SX.sym("x")
     for name, value in options.items():

@@ -15,8 +15,8 @@ from functools import cached_property
 import casadi as cs
 import numpy as np
 
-from motionkit.errors import TrajoptError
-from motionkit.extras import require
+from motionkit.core.errors import TrajoptError
+from motionkit.core.extras import require
 from motionkit.robot import Robot
 from motionkit.robot.model import cached_file
 from motionkit.robot.spec import THRUST_AXIS

@@ -15,9 +15,9 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
-from motionkit.checks import check, refusal
-from motionkit.errors import TrajoptError
-from motionkit.tomlfile import load, read_toml
+from motionkit.core.checks import check, refusal
+from motionkit.core.errors import TrajoptError
+from motionkit.core.tomlfile import load, read_toml
 from motionkit.trajopt.config import TrajoptConfig
 
 

@@ -14,7 +14,7 @@ from scipy.spatial.transform import RotationSpline
 
 from motionkit.dataset import Metadata, Source, Trajectory, corner_names, encode
 from motionkit.dataset.physics import PhysicsConfig, check_physics
-from motionkit.outputs import write_files
+from motionkit.files.outputs import write_files
 from motionkit.robot import Robot
 from motionkit.robot.geometry import from_rotation, to_rotation
 from motionkit.trajopt.solve import Solution

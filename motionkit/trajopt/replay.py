@@ -22,7 +22,7 @@ import numpy as np
 from scipy.interpolate import PchipInterpolator
 from scipy.spatial.transform import Rotation, RotationSpline
 
-from motionkit.errors import TrajoptError
+from motionkit.core.errors import TrajoptError
 from motionkit.robot import Robot
 from motionkit.robot.geometry import to_rotation
 from motionkit.robot.spec import THRUST_AXIS

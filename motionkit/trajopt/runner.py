@@ -13,13 +13,13 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from motionkit.digests import code_digest, digest, versions
-from motionkit.errors import MotionkitError, TrajoptError
-from motionkit.executors import THREAD_VARIABLES, open_executor
-from motionkit.extras import require
-from motionkit.outputs import check_out, claim_out, claimed_out, up_to_date, write_files
-from motionkit.progress import Progress, silent
+from motionkit.core.errors import MotionkitError, TrajoptError
+from motionkit.core.extras import require
+from motionkit.files.digests import code_digest, digest, versions
+from motionkit.files.outputs import check_out, claim_out, claimed_out, up_to_date, write_files
 from motionkit.robot import Robot
+from motionkit.runtime.executors import THREAD_VARIABLES, open_executor
+from motionkit.runtime.progress import Progress, silent
 from motionkit.trajopt.config import TrajoptConfig
 
 FIGURES = ("solve_s", "duration_s", "airborne_s")  # what a batch reports of each clip

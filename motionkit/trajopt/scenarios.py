@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from motionkit.errors import TrajoptError
+from motionkit.core.errors import TrajoptError
 from motionkit.jet_ident.p250 import P250_COEFFS, steady_throttle, steady_thrust
 from motionkit.trajopt.kinematics import GRAVITY
 from motionkit.trajopt.problem import Problem

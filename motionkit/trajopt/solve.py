@@ -17,9 +17,9 @@ from typing import Any
 import casadi as cs
 import numpy as np
 
-from motionkit.errors import TrajoptError
-from motionkit.interrupts import interruptible
+from motionkit.core.errors import TrajoptError
 from motionkit.robot import Robot
+from motionkit.runtime.interrupts import interruptible
 from motionkit.trajopt.config import TrajoptConfig
 from motionkit.trajopt.dynamics import ProblemFunctions
 from motionkit.trajopt.kinematics import RobotKinematics

@@ -13,8 +13,8 @@ Importing `motionkit.viewer.app` needs the [viewer] extra (viser); the rest need
 `ViewerApp` is imported on first use (a ViewerError naming the extra without it).
 """
 
-from motionkit.errors import ViewerError
-from motionkit.extras import require
+from motionkit.core.errors import ViewerError
+from motionkit.core.extras import require
 from motionkit.viewer.playback import Playback
 from motionkit.viewer.sources import ClipInfo, resolve_clips
 

@@ -19,8 +19,8 @@ import numpy as np
 import viser
 import viser.uplot
 
+from motionkit.core.errors import ViewerError
 from motionkit.dataset import Trajectory, corner_names
-from motionkit.errors import ViewerError
 from motionkit.robot import Robot
 from motionkit.robot.geometry import Array
 from motionkit.viewer.meshes import LinkMesh, robot_meshes

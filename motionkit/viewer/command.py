@@ -7,8 +7,8 @@ import math
 from pathlib import Path
 from typing import Any
 
-from motionkit.errors import ViewerError
-from motionkit.extras import require
+from motionkit.core.errors import ViewerError
+from motionkit.core.extras import require
 from motionkit.viewer.skeleton import SKELETON_OFFSET
 
 VIEW_EPILOG = """\

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 import viser
 
-from motionkit.errors import ViewerError
+from motionkit.core.errors import ViewerError
 from motionkit.robot import Robot
 from motionkit.robot.geometry import Array
 from motionkit.viewer.app import CAMERA_FOV, CAMERA_OFFSET, HOST

@@ -107,7 +107,7 @@ def _resolve(filename: str, base: Path | None) -> Path:
 
 
 def _save_cache(path: Path, meshes: list[LinkMesh]) -> None:
-    from motionkit.outputs import atomic_output
+    from motionkit.files.outputs import atomic_output
 
     arrays: dict[str, np.ndarray] = {"links": np.array([m.link for m in meshes])}
     arrays["colors"] = np.array([m.color for m in meshes], dtype=np.uint8).reshape(-1, 3)

@@ -25,9 +25,9 @@ from typing import Any
 
 import numpy as np
 
+from motionkit.core.errors import DatasetError, ViewerError
 from motionkit.dataset import Metadata, Trajectory, corner_names, read_metadata
 from motionkit.dataset.validate import read_valid
-from motionkit.errors import DatasetError, ViewerError
 from motionkit.robot import Robot
 
 

@@ -18,7 +18,7 @@ from mocap_synth import arms_down, mini_bvh
 
 from motionkit.cli import main
 from motionkit.dataset import read
-from motionkit.outputs import MANIFEST
+from motionkit.files.outputs import MANIFEST
 
 pytest.importorskip("ray")
 pytest.importorskip("placo")

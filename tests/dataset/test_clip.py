@@ -12,11 +12,11 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 
 import motionkit.dataset.clip as clip_module
+from motionkit.core.errors import DatasetError
 from motionkit.dataset import corner_names, read, read_metadata, write
 from motionkit.dataset.clip import read_urdf
 from motionkit.dataset.messages import motion_chunk_class
 from motionkit.dataset.synthetic import synthetic_trajectory
-from motionkit.errors import DatasetError
 from motionkit.robot import ironcub
 
 

@@ -6,10 +6,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from motionkit.core.errors import DatasetError
 from motionkit.dataset import MotionDataset, write
 from motionkit.dataset.export import export, to_amp_rsl_rl
 from motionkit.dataset.synthetic import synthetic_trajectory
-from motionkit.errors import DatasetError
 from motionkit.robot import ironcub
 
 

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from motionkit.core.errors import DatasetError
 from motionkit.dataset import Metadata, Trajectory, write
 from motionkit.dataset.physics import (
     GRAVITY,
@@ -17,7 +18,6 @@ from motionkit.dataset.physics import (
     polygon_distance,
 )
 from motionkit.dataset.validate import validate_clip
-from motionkit.errors import DatasetError
 
 pytest.importorskip("pinocchio")
 

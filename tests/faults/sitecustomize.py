@@ -10,7 +10,7 @@ SETTING = os.environ.get("MOTIONKIT_TEST_KILL")
 if SETTING:
     from pathlib import Path
 
-    import motionkit.executors as executors
+    import motionkit.runtime.executors as executors
 
     folder, target, times = SETTING.split(",")
     run_task = executors._run_task

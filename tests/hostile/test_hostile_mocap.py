@@ -17,8 +17,8 @@ from hostile_support import no_hang, refused, snapshot
 from mocap_synth import TRACKABLE, amc_text, bvh_text, synth_body, synth_motion, write_asf
 
 from motionkit.cli import main
+from motionkit.core.errors import MocapError
 from motionkit.dataset import read_metadata
-from motionkit.errors import MocapError
 from motionkit.mocap.bvh import read_bvh
 
 pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")  # no numpy noise either

@@ -14,9 +14,9 @@ from conftest import TOY_SPEC, toy_biped_urdf
 from hostile_support import free_port, tampered
 
 from motionkit.cli import main
+from motionkit.core.errors import RobotModelError
 from motionkit.dataset import Source, write
 from motionkit.dataset.synthetic import synthetic_trajectory
-from motionkit.errors import RobotModelError
 from motionkit.robot import ironcub, load_robot
 
 viser = pytest.importorskip("viser")

@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from motionkit.errors import JetIdentError
+from motionkit.core.errors import JetIdentError
 from motionkit.jet_ident.benchlog import BenchLog, parse_log, read_log, write_log
 
 GOOD = """# engine: P250

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from motionkit.errors import JetIdentError
+from motionkit.core.errors import JetIdentError
 from motionkit.jet_ident.command import add_commands
 from motionkit.jet_ident.export import load_model
 

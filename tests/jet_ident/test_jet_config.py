@@ -5,7 +5,7 @@ from pathlib import Path
 import pytest
 
 from motionkit import recipes
-from motionkit.errors import JetIdentError
+from motionkit.core.errors import JetIdentError
 from motionkit.jet_ident.config import JetIdentConfig, TrainConfig
 
 RECIPE = recipes.find("jet_ident", "p250")

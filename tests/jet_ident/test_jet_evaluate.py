@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from motionkit.errors import JetIdentError
+from motionkit.core.errors import JetIdentError
 from motionkit.jet_ident.benchlog import BenchLog
 from motionkit.jet_ident.evaluate import evaluate, metrics, noise_floor, plot, report_table
 

@@ -7,7 +7,7 @@ import jax
 import numpy as np
 import pytest
 
-from motionkit.errors import JetIdentError
+from motionkit.core.errors import JetIdentError
 from motionkit.jet_ident.baselines import FirstOrderLag, GreyBox
 from motionkit.jet_ident.export import (
     baselines_from_metadata,

@@ -6,7 +6,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from motionkit.errors import JetIdentError
+from motionkit.core.errors import JetIdentError
 from motionkit.jet_ident.benchlog import BenchLog
 from motionkit.jet_ident.config import BenchConfig, JetIdentConfig, ModelConfig, TrainConfig
 from motionkit.jet_ident.evaluate import evaluate, noise_floor

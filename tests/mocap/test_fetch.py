@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from motionkit.errors import MotionkitError
+from motionkit.core.errors import MotionkitError
 from motionkit.mocap import fetch
 from motionkit.mocap.fetch import ClipId, FetchError, clip_cache_dir, fetch_clips, parse_clip_id
 

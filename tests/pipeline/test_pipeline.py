@@ -8,9 +8,9 @@ from mocap_synth import arms_down, mini_bvh
 
 from motionkit import recipes
 from motionkit.cli import main
+from motionkit.core.errors import PipelineError
 from motionkit.dataset import read
-from motionkit.digests import digest
-from motionkit.errors import PipelineError
+from motionkit.files.digests import digest
 from motionkit.pipeline import run_pipeline
 from motionkit.pipeline.cache import run_cached
 from motionkit.pipeline.config import PipelineConfig

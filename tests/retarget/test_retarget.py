@@ -9,9 +9,9 @@ import pytest
 from walker import HIP_Y, SHANK, THIGH, walker
 
 from motionkit import recipes
+from motionkit.core.errors import RetargetError
 from motionkit.dataset import read, write
 from motionkit.dataset.validate import validate_clip
-from motionkit.errors import RetargetError
 from motionkit.retarget.config import RetargetConfig
 from motionkit.retarget.metrics import segment_distance
 from motionkit.robot import ironcub
@@ -60,7 +60,7 @@ def test_output_is_a_valid_clip(result, tmp_path: Path) -> None:
 
 
 def test_clip_holds_the_scaled_human_it_was_retargeted_to(result, tmp_path: Path) -> None:
-    from motionkit.filters import low_pass
+    from motionkit.core.filters import low_pass
     from motionkit.mocap import LANDMARKS
     from motionkit.retarget.metrics import Kinematics
     from motionkit.retarget.points import robot_points
@@ -138,7 +138,7 @@ def test_segment_distance_by_hand() -> None:
 
 
 def test_low_pass_keeps_gait_and_drops_jitter() -> None:
-    from motionkit.filters import low_pass
+    from motionkit.core.filters import low_pass
 
     rate = 120.0
     t = np.arange(600) / rate

@@ -10,8 +10,8 @@ from test_fetch import Server
 from test_fetch import server as server  # the loopback server fixture
 
 from motionkit.cli import main
+from motionkit.core.errors import RetargetError
 from motionkit.dataset import read
-from motionkit.errors import RetargetError
 from motionkit.retarget.batch import resolve_inputs
 
 pytest.importorskip("placo")

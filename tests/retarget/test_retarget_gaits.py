@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from gaits import GAITS, THIGH, gait_clip, smoothstep, write_gait
 
-from motionkit.errors import RetargetError
+from motionkit.core.errors import RetargetError
 from motionkit.mocap import load_mocap
 from motionkit.retarget.config import RetargetConfig, Weights
 from motionkit.retarget.targets import detect_contacts, hysteresis, lock_offsets

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from motionkit.errors import RetargetError
+from motionkit.core.errors import RetargetError
 from motionkit.retarget.config import RetargetConfig
 from motionkit.retarget.points import Point, robot_points
 from motionkit.retarget.targets import Targets

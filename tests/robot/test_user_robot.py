@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from conftest import TOY_SPEC, toy_biped_urdf
 
-from motionkit.errors import RobotModelError
+from motionkit.core.errors import RobotModelError
 from motionkit.robot import Robot, RobotSpec, cache_dir, load_robot
 from motionkit.robot.urdf import inertia_problem, load_urdf, parse_urdf
 

@@ -14,8 +14,8 @@ from safety_support import read_only_folder, snapshot, walk_bvh
 
 from motionkit import recipes
 from motionkit.cli import main
-from motionkit.errors import PipelineError
-from motionkit.outputs import MANIFEST, record_names
+from motionkit.core.errors import PipelineError
+from motionkit.files.outputs import MANIFEST, record_names
 from motionkit.pipeline.cache import run_cached
 
 

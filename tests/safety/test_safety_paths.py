@@ -14,10 +14,10 @@ from test_fetch import ASF, Server, amc, files_in
 from test_fetch import server as server  # the loopback server fixture
 
 from motionkit.cli import main
-from motionkit.errors import MotionkitError, RobotModelError
+from motionkit.core.errors import MotionkitError, RobotModelError
+from motionkit.files.outputs import inside
 from motionkit.mocap import fetch
 from motionkit.mocap.fetch import FetchError, fetch_clips
-from motionkit.outputs import inside
 from motionkit.robot import cache_dir, load_robot
 
 

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from motionkit.errors import TrainError
-from motionkit.outputs import claim_out
+from motionkit.core.errors import TrainError
+from motionkit.files.outputs import claim_out
 from motionkit.train.ablation import AXES, SETTINGS, TABLE, metrics_table, radar_chart, run_ablation
 from motionkit.train.config import PriorConfig, TrainConfig
 

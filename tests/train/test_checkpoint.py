@@ -10,7 +10,7 @@ import optax
 import pytest
 from flax import serialization
 
-from motionkit.errors import TrainError
+from motionkit.core.errors import TrainError
 from motionkit.train.checkpoint import load_checkpoint, save_checkpoint, write_slim
 from motionkit.train.learner import Learner
 from motionkit.train.normalize import RunningNorm

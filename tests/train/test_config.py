@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from motionkit import recipes
-from motionkit.errors import TrainError
+from motionkit.core.errors import TrainError
 from motionkit.train.command import parse_priors
 from motionkit.train.config import TrainConfig
 

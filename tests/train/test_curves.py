@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from motionkit.cli import main
-from motionkit.errors import TrainError
+from motionkit.core.errors import TrainError
 from motionkit.train.curves import PANELS, draw_curves, read_table, running_mean
 
 PNG = b"\x89PNG\r\n\x1a\n"

@@ -14,7 +14,7 @@ import pytest
 
 from motionkit import recipes
 from motionkit.cli import main
-from motionkit.errors import TrainError
+from motionkit.core.errors import TrainError
 from motionkit.train.config import TrainConfig
 from motionkit.train.devices import make_mesh, resolve_devices
 

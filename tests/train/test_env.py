@@ -9,7 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from motionkit.errors import TrainError
+from motionkit.core.errors import TrainError
 from motionkit.train.env import Env
 from motionkit.train.env import mjx as mjx_module
 from motionkit.train.env.mjx import warp_missing

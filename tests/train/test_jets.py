@@ -7,7 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from motionkit.errors import TrainError
+from motionkit.core.errors import TrainError
 
 
 def test_ideal_jet_integrates_the_rate(env) -> None:

@@ -14,10 +14,10 @@ import pytest
 from flax import serialization
 
 from motionkit.cli import main
+from motionkit.core.errors import TrainError
 from motionkit.dataset import read
 from motionkit.dataset.validate import validate_clip
-from motionkit.errors import TrainError
-from motionkit.outputs import MANIFEST, written_names
+from motionkit.files.outputs import MANIFEST, written_names
 from motionkit.train import policy as policy_module
 from motionkit.train.play import Player, parse_waypoints, report, roll_out, write_clip
 from motionkit.train.policy import MAX_BYTES, load_policy

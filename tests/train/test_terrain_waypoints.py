@@ -7,7 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from motionkit.errors import TrainError
+from motionkit.core.errors import TrainError
 from motionkit.train.config import EnvConfig
 from motionkit.train.env import terrain, waypoints
 

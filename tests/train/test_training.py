@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from motionkit.errors import TrainError
+from motionkit.core.errors import TrainError
 
 pytestmark = pytest.mark.slow  # compiles the rollout and the update (about 1-2 minutes)
 

@@ -13,7 +13,7 @@ import pytest
 
 from motionkit import recipes
 from motionkit.cli import add_robot_source
-from motionkit.errors import TrajoptError
+from motionkit.core.errors import TrajoptError
 from motionkit.trajopt.command import add_commands
 from motionkit.trajopt.library import clip_name, read_library
 

@@ -6,7 +6,7 @@ import casadi as cs
 import numpy as np
 import pytest
 
-from motionkit.errors import TrajoptError
+from motionkit.core.errors import TrajoptError
 from motionkit.jet_ident.p250 import (
     P250_COEFFS,
     steady_throttle,

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from motionkit import recipes
-from motionkit.errors import TrajoptError
+from motionkit.core.errors import TrajoptError
 from motionkit.robot.model import ironcub
 from motionkit.trajopt.checks import motion_figures
 from motionkit.trajopt.config import Replay, TrajoptConfig

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from motionkit.cli import main
+from motionkit.core.errors import ViewerError
 from motionkit.dataset import corner_names, write
 from motionkit.dataset.synthetic import synthetic_trajectory
-from motionkit.errors import ViewerError
 from motionkit.robot import ironcub
 from motionkit.viewer.sources import (
     check_robot,

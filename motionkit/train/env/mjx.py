@@ -12,7 +12,7 @@ import io
 import jax
 import mujoco
 
-from motionkit.errors import TrainError
+from motionkit.core.errors import TrainError
 
 with contextlib.redirect_stdout(io.StringIO()):
     from mujoco import mjx

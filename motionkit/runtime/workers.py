@@ -13,7 +13,7 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
-from motionkit.outputs import remove_temporaries
+from motionkit.files.outputs import remove_temporaries
 
 GRACE_S = 2.0  # a terminated worker that has not ended by then is killed
 

@@ -9,8 +9,8 @@ from dataclasses import MISSING, fields, is_dataclass
 from pathlib import Path
 from typing import Any, TypeVar, get_args, get_origin, get_type_hints
 
-from motionkit.errors import MotionkitError
-from motionkit.inputs import read_text
+from motionkit.core.errors import MotionkitError
+from motionkit.files.inputs import read_text
 
 T = TypeVar("T")
 

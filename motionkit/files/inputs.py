@@ -11,7 +11,7 @@ import stat
 from pathlib import Path
 from typing import BinaryIO
 
-from motionkit.errors import MotionkitError
+from motionkit.core.errors import MotionkitError
 
 _KINDS = (
     (stat.S_ISDIR, "a folder"),

@@ -7,7 +7,7 @@ import math
 from collections.abc import Callable, Iterator
 from typing import Any
 
-from motionkit.errors import MotionkitError
+from motionkit.core.errors import MotionkitError
 
 # Rules on each number of a field (a tuple's, item by item), which must also be finite.
 NUMBERS: dict[str, Callable[[float], bool]] = {

@@ -10,7 +10,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-PACKAGE = Path(__file__).resolve().parent  # the motionkit package folder
+PACKAGE = Path(__file__).resolve().parents[1]  # the motionkit package folder
 
 
 def digest(*parts: Any) -> str:

@@ -6,7 +6,7 @@ import contextlib
 import importlib
 import io
 
-from motionkit.errors import MotionkitError
+from motionkit.core.errors import MotionkitError
 
 # extra -> the modules it installs that motionkit imports
 EXTRAS: dict[str, tuple[str, ...]] = {

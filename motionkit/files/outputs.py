@@ -15,7 +15,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import IO, Any
 
-from motionkit.errors import MotionkitError
+from motionkit.core.errors import MotionkitError
 
 
 @contextlib.contextmanager

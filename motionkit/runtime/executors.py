@@ -7,11 +7,9 @@ if that worker dies too, the task is `lost` (the batch reports it failed and car
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import logging
 import os
-import re
 import socket
 from collections import deque
 from collections.abc import Callable, Iterator, Sequence
@@ -20,9 +18,9 @@ from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from typing import Any, Generic, Protocol, TypeVar
 
-from motionkit.errors import MotionkitError
-from motionkit.extras import require
-from motionkit.workers import worker_pool
+from motionkit.core.errors import MotionkitError
+from motionkit.core.extras import require
+from motionkit.runtime.workers import worker_pool
 
 R = TypeVar("R")
 TaskFn = Callable[[Any, Any], Any]  # fn(item, shared) -> result, importable by a worker
@@ -34,7 +32,6 @@ CONNECT_ATTEMPTS = 2  # a refused client handshake is tried once more
 # of this machine; each node keeps its own cache)
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 LOCAL_ONLY = ("MOTIONKIT_CACHE",)
-_ADDRESS = re.compile(r"^(?:ray://)?(?:[A-Za-z0-9._-]+|\[[0-9A-Fa-f:]+\]):(\d{1,5})$")
 
 
 @dataclass(frozen=True)
@@ -54,32 +51,6 @@ class Executor(Protocol):
     def run(
         self, fn: TaskFn, items: Sequence[Any], names: Sequence[str], shared: Any = None
     ) -> Iterator[Finished[Any]]: ...
-
-
-def cluster_address(text: str) -> str:
-    """argparse type of --cluster: `auto`, `HOST:PORT` or `ray://HOST:PORT`."""
-    match = _ADDRESS.match(text.strip())
-    if text.strip() == "auto" or (match and 0 < int(match[1]) < 65536):
-        return text.strip()
-    raise argparse.ArgumentTypeError(
-        f"{text!r}: expected a Ray cluster address: auto, HOST:PORT or ray://HOST:PORT"
-    )
-
-
-def add_batch_options(parser: argparse.ArgumentParser, tasks: str) -> None:
-    """--cluster and --resume, for a command that runs many `tasks`."""
-    parser.add_argument(
-        "--cluster",
-        type=cluster_address,
-        metavar="ADDRESS",
-        help=f"run the {tasks} on a Ray cluster: auto, HOST:PORT or ray://HOST:PORT "
-        "(the [cluster] extra; --jobs is then the cluster's CPUs)",
-    )
-    parser.add_argument(
-        "--resume",
-        action="store_true",
-        help=f"keep the {tasks} whose outputs are up to date (same inputs, config and code)",
-    )
 
 
 @contextlib.contextmanager
@@ -113,7 +84,7 @@ class InProcess:
 
 
 class Processes:
-    """Spawned local processes (motionkit.workers), `workers` tasks at a time. When a worker
+    """Spawned local processes (motionkit.runtime.workers), `workers` tasks at a time. When a worker
     dies the pool is broken: the tasks it was running are run again in a new pool."""
 
     in_process = False
