@@ -36,7 +36,9 @@ def load_priors(
                 read_valid(path, robot, other_model=True)
             dataset = MotionDataset(list(prior.paths))
             pairs = dataset.amp_pairs(robot, rate)
-            frames = [prior_states(t, robot, rate) for _, t in dataset.trajectories()]
+            clips = [resample(t, rate) for _, t in dataset.trajectories()]
+            frames = [prior_states(clip, robot) for clip in clips]
+            gait = gait_figures([sole_heights(clip, robot) for clip in clips], rate)
         except DatasetError as exc:
             raise TrainError(f"prior '{name}': {exc}") from exc
         currents.append(pairs.current)
@@ -50,7 +52,7 @@ def load_priors(
             "pairs": len(pairs.current),
             "weight": prior.weight,
             "airborne_share": round(float(airborne.mean()), 4),
-        }
+        } | {key: round(value, 4) for key, value in gait.items()}
     combined = PriorStates(
         *(np.concatenate([getattr(s, f) for s in states]) for f in PriorStates.__dataclass_fields__)
     )
@@ -63,10 +65,10 @@ def load_priors(
     return data, summary
 
 
-def prior_states(trajectory: Trajectory, robot: Robot, rate: float) -> PriorStates:
-    """The MuJoCo state of every frame of the clip at `rate` but the last (the frames that
-    start a transition): qpos, qvel (angular velocity in the base frame), thrust, airborne."""
-    clip = resample(trajectory, rate)
+def prior_states(clip: Trajectory, robot: Robot) -> PriorStates:
+    """The MuJoCo state of every frame of the clip (at the control rate) but the last (the
+    frames that start a transition): qpos, qvel (angular velocity in the base frame), thrust,
+    airborne."""
     if tuple(clip.joint_names) != tuple(robot.joint_names):
         raise DatasetError(
             f"clip joints {list(clip.joint_names)} are not the robot's {list(robot.joint_names)}"
@@ -75,17 +77,35 @@ def prior_states(trajectory: Trajectory, robot: Robot, rate: float) -> PriorStat
     angular = quat_rotate_inverse(quats, clip.base_angular_velocity.astype(float))
     qpos = np.concatenate([clip.base_position, quats, clip.joint_positions], axis=1)
     qvel = np.concatenate([clip.base_linear_velocity, angular, clip.joint_velocities], axis=1)
-    soles = [foot.sole for foot in robot.spec.feet]
-    poses = frame_poses(robot.model, clip.joint_names, clip.joint_positions, soles)
-    rotation = to_rotation(quats)
-    heights = (
-        np.stack([rotation.apply(poses[:, i, :3, 3])[:, 2] for i in range(len(soles))], axis=1)
-        + clip.base_position[:, 2:3]
-    )
-    airborne = np.all(heights > AIRBORNE_CLEARANCE, axis=1)
+    airborne = np.all(sole_heights(clip, robot) > AIRBORNE_CLEARANCE, axis=1)
     return PriorStates(
         qpos=qpos[:-1].astype(np.float32),
         qvel=qvel[:-1].astype(np.float32),
         thrust=np.asarray(clip.thrust[:-1], np.float32),
         airborne=airborne[:-1],
     )
+
+
+def sole_heights(clip: Trajectory, robot: Robot) -> np.ndarray:
+    """(frames, feet) each sole's height above the ground plane z = 0 [m]."""
+    soles = [foot.sole for foot in robot.spec.feet]
+    poses = frame_poses(robot.model, clip.joint_names, clip.joint_positions, soles)
+    rotation = to_rotation(clip.base_orientation.astype(float))
+    local = [rotation.apply(poses[:, i, :3, 3])[:, 2] for i in range(len(soles))]
+    return np.stack(local, axis=1) + clip.base_position[:, 2:3]
+
+
+def gait_figures(heights: list[np.ndarray], rate: float) -> dict[str, float]:
+    """The gait figures of the training's evaluation for clips' sole heights (each (frames,
+    feet), at `rate` Hz; a foot is down within AIRBORNE_CLEARANCE): the share of frames on one
+    foot, touch-downs plus lift-offs per foot per second, and the highest sole [m]."""
+    down = [h <= AIRBORNE_CLEARANCE for h in heights]
+    frames = sum(len(d) for d in down)
+    single = sum(int((d.sum(axis=1) == 1).sum()) for d in down)
+    switches = sum(int((d[1:] != d[:-1]).sum()) for d in down)
+    foot_steps = sum(d[1:].size for d in down)
+    return {
+        "single_support_share": single / frames,
+        "contact_switches_per_second": switches / foot_steps * rate if foot_steps else 0.0,
+        "sole_clearance_max_m": float(max(h.max() for h in heights)),
+    }

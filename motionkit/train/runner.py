@@ -151,6 +151,13 @@ def train(
         f"scenario {config.env.scenario}, jets {config.env.jet}, priors "
         f"{', '.join(config.priors) or 'none'}; obs {env.obs_size}, actions {env.action_size}"
     )
+    for name, figures in prior_summary.items():
+        progress(
+            f"prior {name}: {figures['clips']} clip(s), {figures['seconds']:.1f} s; on one foot "
+            f"{figures['single_support_share']:.2f} of the time, "
+            f"{figures['contact_switches_per_second']:.2f} contact switches per foot per second, "
+            f"soles up to {100 * figures['sole_clearance_max_m']:.1f} cm (the evaluation's rules)"
+        )
     summary: dict[str, Any] = {"priors": prior_summary}
     last: dict[str, float] = {}
     evaluation: dict[str, float] = {}
