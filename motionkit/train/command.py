@@ -98,6 +98,34 @@ def add_commands(
     )
     robot_source(export)
     export.set_defaults(handler=_export)
+    evaluation = actions.add_parser(
+        "evaluate",
+        help="evaluate a run's policy again, from other starts or with action noise",
+        description="Evaluate the latest checkpoint of a training run as its evaluations do "
+        "(deterministic, from standing starts: with no options, its last row of eval.csv "
+        "again), or from starts in prior frames and with action noise, to find out where the "
+        "policy fails: a policy that walks from prior frames with noise but not from standing "
+        "without it has learnt to carry a gait on, not to start one. Prints the figures; "
+        "writes nothing.",
+    )
+    evaluation.add_argument("run", type=Path, metavar="RUN_DIR", help="OUT of `motionkit train`")
+    evaluation.add_argument(
+        "--prior-starts",
+        type=float,
+        default=0.0,
+        metavar="SHARE",
+        help="share of starts in prior frames, 0-1 (default 0: standing; the priors' paths "
+        "are read from this folder, as the run read them)",
+    )
+    evaluation.add_argument(
+        "--noise",
+        type=float,
+        default=0.0,
+        help="action noise in units of the policy's std (default 0: deterministic; 1: as it "
+        "trains)",
+    )
+    robot_source(evaluation)
+    evaluation.set_defaults(handler=_evaluate)
     curves = actions.add_parser(
         "curves",
         help="draw a run's training curves (RUN_DIR/curves.png)",
@@ -228,6 +256,18 @@ def _export(args: argparse.Namespace) -> int:
     sizes = export_policy(args.run, args.out, robot, half=args.half)
     files = ", ".join(f"{name} {size / 1e3:.1f} kB" for name, size in sizes.items())
     print(f"wrote {args.out}: {files} ({sum(sizes.values()) / 1e6:.2f} MB)")
+    return 0
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    require_train_extra("train evaluate")
+    from motionkit.train.runner import evaluate_run
+
+    robot = load_robot(args.urdf, args.spec)
+    enable_compile_cache()
+    figures = evaluate_run(args.run, robot, args.prior_starts, args.noise)
+    for name, value in figures.items():
+        print(f"{name.removeprefix('eval_')} {value:.6g}")
     return 0
 
 

@@ -1,5 +1,6 @@
-"""Evaluation: deterministic rollouts of the policy from standing starts, their figures (task,
-gait, flight), and the first episode of environment 0 as a motion clip (MCAP) for the viewer."""
+"""Evaluation: deterministic rollouts of the policy from standing starts (or, to find out what a
+policy does elsewhere, from prior frames and with action noise), their figures (task, gait,
+flight), and the first episode of environment 0 as a motion clip (MCAP) for the viewer."""
 
 from __future__ import annotations
 
@@ -22,16 +23,27 @@ DROPPED = ("final_obs", "chi_next")
 
 
 def evaluate(
-    trainer: Trainer, learner: Learner, key: jax.Array, chunks: int
+    trainer: Trainer,
+    learner: Learner,
+    key: jax.Array,
+    chunks: int,
+    prior_share: float = 0.0,
+    noise: float = 0.0,
 ) -> tuple[dict[str, float], dict[str, np.ndarray]]:
-    """`chunks` rollouts of rollout_steps without action noise from standing starts (episodes
-    that end restart standing), their figures (`rollout_figures`, prefixed "eval_") and the
-    arrays: every StepInfo field but DROPPED, the thrust, and KEPT for environment 0."""
+    """`chunks` rollouts of rollout_steps, their figures (`rollout_figures`, prefixed "eval_")
+    and the arrays: every StepInfo field but DROPPED, the thrust, and KEPT for environment 0.
+
+    Args:
+        prior_share: the share of the starts in prior frames (0: all standing, the
+            evaluation's own), kept when an ended episode starts again.
+        noise: the action noise in units of the policy's std (0: deterministic).
+    """
     k_reset, k_run = jax.random.split(key)
-    state = trainer.reset_standing(jax.random.split(k_reset, trainer.config.ppo.num_envs))
+    keys = jax.random.split(k_reset, trainer.config.ppo.num_envs)
+    state = trainer.reset_evaluation(keys, prior_share)
     infos, thrust, kept = [], [], {name: [] for name in KEPT}
     for k in jax.random.split(k_run, chunks):
-        state, batch = trainer.rollout(learner, state, k, jnp.array(0.0))
+        state, batch = trainer.rollout(learner, state, k, jnp.array(noise))
         empty = {name: np.zeros((*batch.info.done.shape, 0)) for name in DROPPED}
         infos.append(jax.tree.map(np.asarray, batch.info.replace(**empty)))
         thrust.append(np.asarray(batch.thrust))

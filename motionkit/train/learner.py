@@ -151,9 +151,7 @@ class Trainer:
             self._init_mujoco()
         else:
             self.reset = self._split_reset(env.reset)
-            # evaluations start standing, with the task's share of air waypoints
-            standing = lambda key: env.reset(key, env.config.air_probability, 0.0)  # noqa: E731
-            self.reset_standing = self._split_reset(standing)
+            self._evaluation_resets: dict[float, Any] = {}
             self.rollout = jax.jit(self._rollout)
         kept = replicated(self.mesh)
         self.update = jax.jit(self._update, out_shardings=(kept, kept, kept))
@@ -166,14 +164,23 @@ class Trainer:
         n = self.config.ppo.num_envs
         self.physics = [BatchPhysics(self.env, n, index=k) for k in range(2)]
         self.reset = self.physics[0].reset
-        air = self.env.config.air_probability
-        self.reset_standing = lambda keys: self.physics[1].reset(keys, air, 0.0)
         self.clock = PhaseClock()
         self._draws = jax.jit(self._draws_fn, static_argnums=1)
         self._act_control = jax.jit(self._act_control_fn)
         self._advance_record = jax.jit(self._advance_record_fn)
         self._stack = jax.jit(self._stack_fn)
         self.rollout = self._rollout_mujoco
+
+    def reset_evaluation(self, keys: jax.Array, prior_share: float = 0.0) -> EnvState:
+        """The starts of an evaluation, one per key: standing, or in a prior frame at
+        `prior_share`; with the task's share of air waypoints."""
+        air = self.env.config.air_probability
+        if self.env.config.impl == "mujoco":
+            return self.physics[1].reset(keys, air, prior_share)
+        if prior_share not in self._evaluation_resets:
+            starts = lambda key: self.env.reset(key, air, prior_share)  # noqa: E731
+            self._evaluation_resets[prior_share] = self._split_reset(starts)
+        return self._evaluation_resets[prior_share](keys)
 
     def _split_reset(self, reset: Any) -> Any:
         """`reset` of one environment as a jitted batch reset of keys split over the mesh."""

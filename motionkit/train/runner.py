@@ -244,6 +244,42 @@ def run_evaluation(
     return metrics
 
 
+def evaluate_run(
+    run: Path, robot: Robot, prior_share: float = 0.0, noise: float = 0.0
+) -> dict[str, float]:
+    """A run's latest checkpoint in the evaluation of its config, from other starts or with
+    action noise: a way to find out where a policy fails.
+
+    Args:
+        run: the OUT of `train` (its config.toml and checkpoint.msgpack; the priors' paths of
+            the config are read from the current folder, as training read them).
+        robot: the robot it was trained for.
+        prior_share: the share of starts in prior frames (0: standing, as the run evaluates).
+        noise: the action noise in units of the policy's std (0: deterministic).
+
+    Returns:
+        The figures ("eval_" names). With the defaults, those of the run's own evaluation at
+        the checkpoint's iteration (its row of eval.csv), drawn with the same key.
+    """
+    run = Path(run)
+    for name in ("config.toml", NAME):
+        if not (run / name).is_file():
+            raise TrainError(f"{run}: no {name} (not the OUT of motionkit train?)")
+    if not 0.0 <= prior_share <= 1.0 or noise < 0.0:
+        raise TrainError(f"prior share {prior_share} must be in [0, 1], noise {noise} >= 0")
+    config = TrainConfig.from_toml(run / "config.toml")
+    config = replace(config, env=replace(config.env, impl=resolve_impl(config.env.impl)))
+    if prior_share > 0 and not config.priors:
+        raise TrainError(f"{run}: starts in prior frames need priors, and the run has none")
+    prior = load_priors(config.priors, robot, config.env.control_hz)[0] if prior_share else None
+    trainer = Trainer(config, make_env(config, robot, prior))
+    template, _ = trainer.init(config.run.seed)
+    learner = trainer.replicate(load_checkpoint(run / NAME, template)[0])
+    key = jax.random.fold_in(jax.random.key(config.run.seed + 1), int(learner.iteration))
+    chunks = config.run.eval_rollouts
+    return evaluate(trainer, learner, key, chunks, prior_share, noise)[0]
+
+
 def _phases(trainer: Trainer) -> dict[str, float]:
     """Seconds per rollout phase since the last call (MuJoCo backend; {} on MJX)."""
     clock = getattr(trainer, "clock", None)

@@ -256,3 +256,24 @@ def test_export_refuses_a_folder_that_is_no_run(tmp_path: Path, capsys) -> None:
     assert main(["train", "export", str(tmp_path), "--out", str(tmp_path / "p")]) == 2
     assert "not a training run (no config.toml and checkpoint.msgpack)" in capsys.readouterr().err
     assert not (tmp_path / "p").exists()
+
+
+# -- evaluate -----------------------------------------------------------------------------------
+@slow
+def test_evaluate_repeats_the_runs_evaluation_and_tries_noise(run_folder: Path, capsys) -> None:
+    import csv
+
+    last = list(csv.DictReader((run_folder / "eval.csv").open()))[-1]
+
+    def figures(*extra: str) -> dict[str, float]:
+        assert main(["train", "evaluate", str(run_folder), *extra]) == 0
+        lines = capsys.readouterr().out.splitlines()
+        return {name: float(value) for name, value in (line.split() for line in lines)}
+
+    again = figures()
+    for name in ("task_reward", "approach_speed", "single_support_share", "episode_seconds"):
+        assert again[name] == pytest.approx(float(last[f"eval_{name}"]), rel=1e-5, abs=1e-7)
+    noisy = figures("--noise", "1")
+    assert noisy["task_reward"] != pytest.approx(again["task_reward"], rel=1e-4)
+    assert main(["train", "evaluate", str(run_folder), "--prior-starts", "0.5"]) == 2
+    assert "need priors, and the run has none" in capsys.readouterr().err
