@@ -49,3 +49,14 @@ def test_installed_package_runs_from_an_empty_folder(installed: Path, tmp_path: 
     clips = sorted(p.name for p in (tmp_path / "runs" / "pipeline" / "walk").glob("*.mcap"))
     assert clips == ["02_01.mcap", "11_01.mcap", "35_01.mcap"]
     assert not list((tmp_path / "cache").rglob("*.amc"))  # nothing was downloaded
+
+
+@pytest.mark.slow
+def test_the_installed_package_plays_its_shipped_policy(installed: Path, tmp_path: Path) -> None:
+    """A newcomer's first play, from an empty folder: the shipped policy came with the wheel."""
+    result = run(installed, tmp_path, "motionkit", "play", "--waypoints", "1.5,0,0.6 3,1,0.6",
+                 "--out", "plays")  # fmt: skip
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
+    assert "site-packages" in result.stdout and "policies/walk" in result.stdout
+    assert result.stdout.count(": reached at ") == 2 and "x real time" in result.stdout
+    assert (tmp_path / "plays" / "play.mcap").stat().st_size > 0

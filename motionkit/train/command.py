@@ -124,6 +124,19 @@ def add_commands(
         help="action noise in units of the policy's std (default 0: deterministic; 1: as it "
         "trains)",
     )
+    evaluation.add_argument(
+        "--checkpoint",
+        type=Path,
+        metavar="FILE",
+        help="evaluate this checkpoint of the run (one kept aside from an earlier iteration) "
+        "instead of its latest",
+    )
+    evaluation.add_argument(
+        "--seed",
+        type=int,
+        help="draw the starts and waypoints from this seed, not the run's: another sample of "
+        "the same evaluation, to see how much its figures vary",
+    )
     robot_source(evaluation)
     evaluation.set_defaults(handler=_evaluate)
     curves = actions.add_parser(
@@ -265,7 +278,9 @@ def _evaluate(args: argparse.Namespace) -> int:
 
     robot = load_robot(args.urdf, args.spec)
     enable_compile_cache()
-    figures = evaluate_run(args.run, robot, args.prior_starts, args.noise)
+    figures = evaluate_run(
+        args.run, robot, args.prior_starts, args.noise, args.checkpoint, args.seed
+    )
     for name, value in figures.items():
         print(f"{name.removeprefix('eval_')} {value:.6g}")
     return 0

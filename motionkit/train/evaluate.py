@@ -14,6 +14,7 @@ import numpy as np
 from motionkit.dataset import Metadata, Source, Trajectory, write
 from motionkit.robot import Robot
 from motionkit.robot.geometry import angular_velocity
+from motionkit.train.env.rewards import style_reward
 from motionkit.train.figures import rollout_figures
 from motionkit.train.learner import Learner, Trainer
 
@@ -32,6 +33,8 @@ def evaluate(
 ) -> tuple[dict[str, float], dict[str, np.ndarray]]:
     """`chunks` rollouts of rollout_steps, their figures (`rollout_figures`, prefixed "eval_")
     and the arrays: every StepInfo field but DROPPED, the thrust, and KEPT for environment 0.
+    A run with priors adds the discriminator's view of the rollout's transitions: its accuracy
+    on them (the share it tells from the priors') and their mean style reward.
 
     Args:
         prior_share: the share of the starts in prior frames (0: all standing, the
@@ -41,9 +44,12 @@ def evaluate(
     k_reset, k_run = jax.random.split(key)
     keys = jax.random.split(k_reset, trainer.config.ppo.num_envs)
     state = trainer.reset_evaluation(keys, prior_share)
-    infos, thrust, kept = [], [], {name: [] for name in KEPT}
+    infos, thrust, kept, logits = [], [], {name: [] for name in KEPT}, []
     for k in jax.random.split(k_run, chunks):
         state, batch = trainer.rollout(learner, state, k, jnp.array(noise))
+        if trainer.config.priors:
+            chi, chi_next = learner.amp_norm(batch.chi), learner.amp_norm(batch.info.chi_next)
+            logits.append(np.asarray(trainer.style.net.apply(learner.disc, chi, chi_next)))
         empty = {name: np.zeros((*batch.info.done.shape, 0)) for name in DROPPED}
         infos.append(jax.tree.map(np.asarray, batch.info.replace(**empty)))
         thrust.append(np.asarray(batch.thrust))
@@ -55,6 +61,10 @@ def evaluate(
     hz = trainer.config.env.control_hz
     figures = rollout_figures(info, arrays["thrust"], trainer.env.t_max, hz)
     metrics = {f"eval_{name}": float(value) for name, value in figures.items()}
+    if logits:
+        scale = trainer.config.amp.style_scale
+        metrics["eval_disc_policy_accuracy"] = float(np.mean(np.concatenate(logits) < 0))
+        metrics["eval_style_reward"] = float(jnp.mean(style_reward(jnp.array(logits), scale)))
     return metrics | {"eval_ground_share": 1.0 - metrics["eval_airborne_share"]}, arrays
 
 

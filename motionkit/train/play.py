@@ -112,11 +112,20 @@ class Leg:
     reached: float | None = None  # s
     steps: int = 0
     airborne: int = 0  # steps after which both soles were off the ground
+    single: int = 0  # steps after which exactly one sole was on the ground
+    switches: float = 0.0  # touch-downs plus lift-offs, per foot
     thrust: float = 0.0  # sum over the steps of the mean T / T_max
 
     @property
     def airborne_share(self) -> float:
         return self.airborne / self.steps if self.steps else 0.0
+
+    @property
+    def single_share(self) -> float:
+        return self.single / self.steps if self.steps else 0.0
+
+    def switches_per_second(self, control_hz: float) -> float:
+        return self.switches * control_hz / self.steps if self.steps else 0.0
 
     @property
     def thrust_share(self) -> float:
@@ -196,7 +205,7 @@ def roll_out(
         return legs[min(index, len(legs) - 1)].target
 
     tick = time.perf_counter()
-    obs, _, _ = player.observe(current())
+    obs, before, _ = player.observe(current())
     jax.block_until_ready((act(obs), player.control(env.rest_action)))  # compiled, not timed
     played.compile_seconds = time.perf_counter() - tick
     start = time.perf_counter()
@@ -222,8 +231,11 @@ def roll_out(
                     legs[index].start = now
         obs, feet, lift = player.observe(current())
         played.feet_down.append(feet)
-        if leg is not None and not feet.any():
-            leg.airborne += 1
+        if leg is not None:
+            leg.airborne += int(not feet.any())
+            leg.single += int(feet.sum() == 1)
+            leg.switches += float(np.mean(feet != before))
+        before = feet
         if lift < config.min_base_height:
             played.falls, played.end = 1, f"with a fall at {now:.2f} s"
             break
@@ -365,8 +377,10 @@ def report(played: Played) -> list[str]:
             lines.append(head + "not pursued")
             continue
         way = (
-            f"{leg.how} (airborne {100 * leg.airborne_share:.0f} % of the way), thrust "
-            f"{100 * leg.thrust_share:.1f} % of T_max"
+            f"{leg.how} (airborne {100 * leg.airborne_share:.0f} % of the way, on one foot "
+            f"{100 * leg.single_share:.0f} %, "
+            f"{leg.switches_per_second(played.control_hz):.1f} contact switches per foot per "
+            f"second), thrust {100 * leg.thrust_share:.1f} % of T_max"
         )
         if leg.reached is None:
             lines.append(head + f"not reached in {leg.steps / played.control_hz:.2f} s, {way}")

@@ -37,8 +37,9 @@ def load_priors(
             dataset = MotionDataset(list(prior.paths))
             pairs = dataset.amp_pairs(robot, rate)
             clips = [resample(t, rate) for _, t in dataset.trajectories()]
-            frames = [prior_states(clip, robot) for clip in clips]
-            gait = gait_figures([sole_heights(clip, robot) for clip in clips], rate)
+            heights = [sole_heights(clip, robot) for clip in clips]
+            frames = [prior_states(c, robot, h) for c, h in zip(clips, heights, strict=True)]
+            gait = gait_figures(heights, rate)
         except DatasetError as exc:
             raise TrainError(f"prior '{name}': {exc}") from exc
         currents.append(pairs.current)
@@ -65,10 +66,10 @@ def load_priors(
     return data, summary
 
 
-def prior_states(clip: Trajectory, robot: Robot) -> PriorStates:
+def prior_states(clip: Trajectory, robot: Robot, heights: np.ndarray) -> PriorStates:
     """The MuJoCo state of every frame of the clip (at the control rate) but the last (the
     frames that start a transition): qpos, qvel (angular velocity in the base frame), thrust,
-    airborne."""
+    airborne (from the clip's `sole_heights`)."""
     if tuple(clip.joint_names) != tuple(robot.joint_names):
         raise DatasetError(
             f"clip joints {list(clip.joint_names)} are not the robot's {list(robot.joint_names)}"
@@ -77,7 +78,7 @@ def prior_states(clip: Trajectory, robot: Robot) -> PriorStates:
     angular = quat_rotate_inverse(quats, clip.base_angular_velocity.astype(float))
     qpos = np.concatenate([clip.base_position, quats, clip.joint_positions], axis=1)
     qvel = np.concatenate([clip.base_linear_velocity, angular, clip.joint_velocities], axis=1)
-    airborne = np.all(sole_heights(clip, robot) > AIRBORNE_CLEARANCE, axis=1)
+    airborne = np.all(heights > AIRBORNE_CLEARANCE, axis=1)
     return PriorStates(
         qpos=qpos[:-1].astype(np.float32),
         qvel=qvel[:-1].astype(np.float32),

@@ -125,11 +125,8 @@ def train(
     if not resume and checkpoint.exists():
         raise TrainError(f"{out} holds a run already: pass --resume or another --out")
     check_out(out, OUTPUTS, TrainError)
-    config = replace(config, env=replace(config.env, impl=resolve_impl(config.env.impl)))
-    prior, prior_summary = load_priors(config.priors, robot, config.env.control_hz)
-    env = make_env(config, robot, prior)
-    trainer = Trainer(config, env)
-    run = config.run
+    config, trainer, prior_summary = build_trainer(config, robot)
+    env, run = trainer.env, config.run
     learner, carry = trainer.init(run.seed)
     if resume:  # checked before anything is written
         restored, slim = load_checkpoint(checkpoint, learner)
@@ -245,7 +242,12 @@ def run_evaluation(
 
 
 def evaluate_run(
-    run: Path, robot: Robot, prior_share: float = 0.0, noise: float = 0.0
+    run: Path,
+    robot: Robot,
+    prior_share: float = 0.0,
+    noise: float = 0.0,
+    checkpoint: Path | None = None,
+    seed: int | None = None,
 ) -> dict[str, float]:
     """A run's latest checkpoint in the evaluation of its config, from other starts or with
     action noise: a way to find out where a policy fails.
@@ -256,28 +258,44 @@ def evaluate_run(
         robot: the robot it was trained for.
         prior_share: the share of starts in prior frames (0: standing, as the run evaluates).
         noise: the action noise in units of the policy's std (0: deterministic).
+        checkpoint: another checkpoint of the same config (an earlier one kept aside) instead
+            of the run's latest.
+        seed: draw the starts and waypoints from this seed instead of the run's (another
+            sample of the same evaluation).
 
     Returns:
         The figures ("eval_" names). With the defaults, those of the run's own evaluation at
         the checkpoint's iteration (its row of eval.csv), drawn with the same key.
     """
     run = Path(run)
-    for name in ("config.toml", NAME):
-        if not (run / name).is_file():
-            raise TrainError(f"{run}: no {name} (not the OUT of motionkit train?)")
+    if not (run / "config.toml").is_file():
+        raise TrainError(f"{run}: no config.toml (not the OUT of motionkit train?)")
+    checkpoint = run / NAME if checkpoint is None else Path(checkpoint)
+    if not checkpoint.is_file():
+        raise TrainError(f"{checkpoint}: no such checkpoint")
     if not 0.0 <= prior_share <= 1.0 or noise < 0.0:
         raise TrainError(f"prior share {prior_share} must be in [0, 1], noise {noise} >= 0")
     config = TrainConfig.from_toml(run / "config.toml")
-    config = replace(config, env=replace(config.env, impl=resolve_impl(config.env.impl)))
     if prior_share > 0 and not config.priors:
         raise TrainError(f"{run}: starts in prior frames need priors, and the run has none")
-    prior = load_priors(config.priors, robot, config.env.control_hz)[0] if prior_share else None
-    trainer = Trainer(config, make_env(config, robot, prior))
+    config, trainer, _ = build_trainer(config, robot, with_priors=prior_share > 0)
     template, _ = trainer.init(config.run.seed)
-    learner = trainer.replicate(load_checkpoint(run / NAME, template)[0])
-    key = jax.random.fold_in(jax.random.key(config.run.seed + 1), int(learner.iteration))
+    learner = trainer.replicate(load_checkpoint(checkpoint, template)[0])
+    seed = config.run.seed if seed is None else seed
+    key = jax.random.fold_in(jax.random.key(seed + 1), int(learner.iteration))
     chunks = config.run.eval_rollouts
     return evaluate(trainer, learner, key, chunks, prior_share, noise)[0]
+
+
+def build_trainer(
+    config: TrainConfig, robot: Robot, with_priors: bool = True
+) -> tuple[TrainConfig, Trainer, dict[str, dict[str, float]]]:
+    """The config with its physics resolved for this machine, its trainer (the environment
+    resetting from the priors' frames unless `with_priors` is False) and the priors' summary."""
+    config = replace(config, env=replace(config.env, impl=resolve_impl(config.env.impl)))
+    priors = config.priors if with_priors else {}
+    prior, summary = load_priors(priors, robot, config.env.control_hz)
+    return config, Trainer(config, make_env(config, robot, prior)), summary
 
 
 def _phases(trainer: Trainer) -> dict[str, float]:

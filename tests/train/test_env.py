@@ -160,7 +160,8 @@ def test_the_swing_term_reads_each_soles_lift_and_speed(impl_env, started) -> No
     after = data.replace(site_xpos=moved)
     down = env.feet_down(after)
     assert not bool(down[0]) and bool(down[1])
-    assert float(env._swing(data, after, down)) == pytest.approx(0.375, rel=1e-4)
+    clearance = env.sole_clearance(after)
+    assert float(env._swing(data, after, clearance)) == pytest.approx(0.375, rel=1e-4)
     # the same step with the right sole lifted too (no foot down) earns nothing
     both = after.replace(site_xpos=moved.at[right, 2].add(0.2))
-    assert float(env._swing(data, both, env.feet_down(both))) == 0.0
+    assert float(env._swing(data, both, env.sole_clearance(both))) == 0.0

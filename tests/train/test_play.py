@@ -124,7 +124,8 @@ def test_a_waypoint_at_the_start_is_reached_after_the_first_step(exported: Path,
     np.testing.assert_array_equal(played.target[1], [5.0, 5.0, 0.6])
     assert re.fullmatch(
         r"waypoint 1 \(0\.00, 0\.00, 0\.6\d\) m: reached at 0\.02 s \(after 0\.02 s\), "
-        r"walking \(airborne 0 % of the way\), thrust \d+\.\d % of T_max",
+        r"walking \(airborne 0 % of the way, on one foot \d+ %, \d+\.\d contact switches per "
+        r"foot per second\), thrust \d+\.\d % of T_max",
         report(played)[0],
     )
     # the last waypoint reached ends the run; one step is too short for a clip
@@ -149,6 +150,33 @@ def test_another_robot_layout_is_refused(exported: Path, tmp_path: Path, capsys)
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "a policy for other (22 joints, 4 jets), not for" in err
     assert not out.exists()
+
+
+def test_the_shipped_policy_walks_to_both_waypoints(robot, tmp_path: Path, capsys) -> None:
+    """The README's first play: the default policy walks (alternating single support, at
+    least the walking goals: on one foot >= 25 %, >= 1 switch per foot per second) to both
+    waypoints without a fall, and its clip validates."""
+    out = tmp_path / "plays"
+    assert main(["play", "--waypoints", "1.5,0,0.6 3,1,0.6", "--out", str(out)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    legs = [line for line in lines if line.startswith("waypoint ")]
+    assert len(legs) == 2 and all(": reached at " in line for line in legs)
+    for line in legs:
+        single, switches = re.search(r"on one foot (\d+) %, (\d+\.\d) contact", line).groups()
+        assert "walking (airborne" in line and int(single) >= 25 and float(switches) >= 1.0
+    assert any(line.endswith("falls: 0") for line in lines)
+    assert re.search(r"\d+\.\dx real time", lines[-2] + lines[-1])
+    checks = validate_clip(out / "play.mcap", robot)
+    assert all(c.ok or c.warning for c in checks), [c for c in checks if not c.ok]
+
+
+def test_the_gait_counters_of_a_way() -> None:
+    from motionkit.train.play import Leg
+
+    leg = Leg(np.zeros(3), steps=30, single=12, switches=4.5, airborne=3)
+    assert leg.single_share == pytest.approx(0.4) and leg.airborne_share == pytest.approx(0.1)
+    assert leg.switches_per_second(30.0) == pytest.approx(4.5)  # 4.5 per foot in 1 s
+    assert Leg(np.zeros(3)).switches_per_second(30.0) == 0.0
 
 
 # -- parity with the MJX environment ------------------------------------------------------------
@@ -273,6 +301,13 @@ def test_evaluate_repeats_the_runs_evaluation_and_tries_noise(run_folder: Path, 
     again = figures()
     for name in ("task_reward", "approach_speed", "single_support_share", "episode_seconds"):
         assert again[name] == pytest.approx(float(last[f"eval_{name}"]), rel=1e-5, abs=1e-7)
+    kept = run_folder.parent / "kept.msgpack"  # a checkpoint kept aside: the same figures
+    kept.write_bytes((run_folder / "checkpoint.msgpack").read_bytes())
+    assert figures("--checkpoint", str(kept)) == pytest.approx(again, nan_ok=True)
+    assert main(["train", "evaluate", str(run_folder), "--checkpoint", str(kept) + "x"]) == 2
+    assert "kept.msgpackx: no such checkpoint" in capsys.readouterr().err
+    other = figures("--seed", "7")  # other starts and waypoints
+    assert other["task_reward"] != pytest.approx(again["task_reward"], rel=1e-4)
     noisy = figures("--noise", "1")
     assert noisy["task_reward"] != pytest.approx(again["task_reward"], rel=1e-4)
     assert main(["train", "evaluate", str(run_folder), "--prior-starts", "0.5"]) == 2

@@ -161,3 +161,25 @@ def test_place_checkpoint_refusals(tmp_path: Path) -> None:
     assert not place_checkpoint(tmp_path / "out", own, "--resume-from")  # the run's own
     with pytest.raises(TrainError, match="holds another run"):
         place_checkpoint(tmp_path / "out", source, "--resume-from")
+
+
+@pytest.mark.parametrize("bias", [5.0, -5.0])
+def test_the_evaluation_reads_the_discriminator(run_folder: Path, robot, bias: float) -> None:
+    """A discriminator that answers the same logit everywhere: the evaluation's accuracy on
+    policy samples is 0 (all taken for prior motion) or 1, its style reward 2 softplus(bias)."""
+    import jax
+    import jax.numpy as jnp
+
+    from motionkit.train.config import TrainConfig
+    from motionkit.train.evaluate import evaluate
+    from motionkit.train.runner import build_trainer
+
+    config = TrainConfig.from_toml(run_folder / "config.toml")
+    _, trainer, _ = build_trainer(config, robot, with_priors=False)
+    learner, _ = trainer.init(0)
+    constant = jax.tree.map(jnp.zeros_like, learner.disc)
+    constant["params"]["logit"]["bias"] = jnp.full_like(constant["params"]["logit"]["bias"], bias)
+    learner = learner.replace(disc=constant)
+    figures, _ = evaluate(trainer, learner, jax.random.key(0), chunks=1)
+    assert figures["eval_disc_policy_accuracy"] == (0.0 if bias > 0 else 1.0)
+    assert figures["eval_style_reward"] == pytest.approx(2 * np.logaddexp(0.0, bias), rel=1e-5)

@@ -267,14 +267,14 @@ class Env:
         """(feet,) whether each sole is within AIRBORNE_CLEARANCE of the terrain."""
         return self.sole_clearance(data) <= AIRBORNE_CLEARANCE
 
-    def _swing(self, before: Any, data: Any, down: jax.Array) -> jax.Array:
-        """The swing term of the step from `before` to `data` (`rewards.swing_reward`)."""
+    def _swing(self, before: Any, data: Any, clearance: jax.Array) -> jax.Array:
+        """The swing term of the step from `before` to `data` (`rewards.swing_reward`), given
+        the soles' clearance after it."""
         moved = data.site_xpos[self.sole_sites, :2] - before.site_xpos[self.sole_sites, :2]
         speed = jnp.linalg.norm(moved, axis=-1) / self.config.control_dt
+        down = clearance <= AIRBORNE_CLEARANCE
         config = self.reward_config
-        return swing_reward(
-            self.sole_clearance(data), speed, down, config.swing_height, config.v_desired
-        )
+        return swing_reward(clearance, speed, down, config.swing_height, config.v_desired)
 
     def joint_targets(self, joint_actions: jax.Array) -> jax.Array:
         return jnp.clip(
@@ -414,9 +414,10 @@ class Env:
         terms = task_terms(
             base, velocity, facing, state.target, thrust, self.t_max, self.reward_config
         )
-        feet_down = self.feet_down(data)
+        clearance = self.sole_clearance(data)
+        feet_down = clearance <= AIRBORNE_CLEARANCE
         if self.reward_config.w_swing > 0:
-            terms["swing"] = self._swing(state.data, data, feet_down)
+            terms["swing"] = self._swing(state.data, data, clearance)
         reward = task_reward(terms, self.reward_config)
         offset = (state.target - base)[:2]
         approach = jnp.dot(velocity[:2], offset) / (jnp.linalg.norm(offset) + 1e-6)
