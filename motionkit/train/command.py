@@ -137,6 +137,18 @@ def add_commands(
         help="draw the starts and waypoints from this seed, not the run's: another sample of "
         "the same evaluation, to see how much its figures vary",
     )
+    evaluation.add_argument(
+        "--prior",
+        metavar="NAME",
+        help="start in the frames of this prior alone (with --prior-starts; e.g. flight: "
+        "from flight states)",
+    )
+    evaluation.add_argument(
+        "--air-share",
+        type=float,
+        metavar="P",
+        help="the chance of an air waypoint, 0-1, instead of the config's air_probability",
+    )
     robot_source(evaluation)
     evaluation.set_defaults(handler=_evaluate)
     curves = actions.add_parser(
@@ -279,7 +291,14 @@ def _evaluate(args: argparse.Namespace) -> int:
     robot = load_robot(args.urdf, args.spec)
     enable_compile_cache()
     figures = evaluate_run(
-        args.run, robot, args.prior_starts, args.noise, args.checkpoint, args.seed
+        args.run,
+        robot,
+        args.prior_starts,
+        args.noise,
+        args.checkpoint,
+        args.seed,
+        args.prior,
+        args.air_share,
     )
     for name, value in figures.items():
         print(f"{name.removeprefix('eval_')} {value:.6g}")

@@ -19,9 +19,9 @@ PANELS: dict[str, tuple[str, ...]] = {
     "single support share": ("single_support_share",),
     "contact switches per second": ("contact_switches_per_second",),
     "falls per episode": ("falls_per_episode",),
-    "waypoints per episode": ("waypoints_per_episode",),
-    "airborne share": ("airborne_share",),
-    "thrust usage (T / T_max)^2": ("thrust_usage",),
+    "waypoints per episode": ("waypoints_per_episode", "air_waypoints_per_episode"),
+    "airborne share": ("airborne_share", "airborne_share_to_ground", "airborne_share_to_air"),
+    "thrust usage T / T_max": ("thrust_usage", "thrust_usage_airborne"),
     "discriminator accuracy": ("disc_policy_accuracy", "disc_expert_accuracy"),
     "rewards": ("task_reward", "style_reward"),
 }

@@ -2,7 +2,9 @@
 
 Per step (means over every step and environment): the task reward and its terms, the
 horizontal speed toward the waypoint, the share of steps on one foot, touch-downs plus
-lift-offs per foot per second, the airborne share, the thrust per T_max. Per episode: over the
+lift-offs per foot per second, the airborne share, the thrust per T_max (also over the airborne
+steps alone), the airborne share on the way to ground waypoints and to air ones. Per episode:
+over the
 episodes that ended in the rollout (their length, waypoints, falls); when none ended, over the
 episodes still running, as far as they got (a partial figure, so that a rollout shorter than
 an episode still reports one).
@@ -27,6 +29,8 @@ def rollout_figures(
     episodes = counted.sum()
     hits, missed = info.hit.sum(), info.timed_out.sum()
     falls = (done & ~info.truncated).sum()
+    air = info.air_target
+    usage = (thrust / t_max).mean(-1)  # (T, N): the mean over the jets
 
     def per_episode(x: jax.Array) -> jax.Array:
         return (x * counted).sum() / episodes
@@ -41,10 +45,16 @@ def rollout_figures(
         "single_support_share": (info.feet_down.sum(-1) == 1).mean(),
         "contact_switches_per_second": info.switches.mean() * control_hz,
         "airborne_share": info.airborne.mean(),
-        "thrust_usage": (thrust / t_max).mean(),
+        "airborne_share_to_ground": share((info.airborne & ~air).sum(), (~air).sum()),
+        "airborne_share_to_air": share((info.airborne & air).sum(), air.sum()),
+        "thrust_usage": usage.mean(),
+        "thrust_usage_airborne": share((usage * info.airborne).sum(), info.airborne.sum()),
         "episodes": episodes.astype(jnp.float32),
         "episode_seconds": per_episode(info.episode_steps) / control_hz,
         "waypoints_per_episode": per_episode(info.episode_reached),
+        "air_waypoints_per_episode": per_episode(info.episode_air_reached),
+        # episodes with at least 1 s airborne in a row (a take-off that stays up)
+        "flight_1s_share": per_episode(info.episode_longest_flight >= round(control_hz)),
         "seconds_to_waypoint": share(info.hit_steps.sum(), hits) / control_hz,
         "waypoints_missed_share": share(missed, hits + missed),
         "falls": falls,

@@ -248,6 +248,8 @@ def evaluate_run(
     noise: float = 0.0,
     checkpoint: Path | None = None,
     seed: int | None = None,
+    prior: str | None = None,
+    air_share: float | None = None,
 ) -> dict[str, float]:
     """A run's latest checkpoint in the evaluation of its config, from other starts or with
     action noise: a way to find out where a policy fails.
@@ -262,6 +264,9 @@ def evaluate_run(
             of the run's latest.
         seed: draw the starts and waypoints from this seed instead of the run's (another
             sample of the same evaluation).
+        prior: start in the frames of this prior alone (one of the config's; the
+            discriminator sees the same policy, the style figures compare with this prior).
+        air_share: the chance of an air waypoint instead of the config's air_probability.
 
     Returns:
         The figures ("eval_" names). With the defaults, those of the run's own evaluation at
@@ -278,6 +283,15 @@ def evaluate_run(
     config = TrainConfig.from_toml(run / "config.toml")
     if prior_share > 0 and not config.priors:
         raise TrainError(f"{run}: starts in prior frames need priors, and the run has none")
+    if prior is not None:
+        if prior not in config.priors:
+            known = ", ".join(config.priors) or "none"
+            raise TrainError(f"{run}: no prior {prior!r} in its config (its priors: {known})")
+        config = replace(config, priors={prior: config.priors[prior]})
+    if air_share is not None:
+        if not 0.0 <= air_share <= 1.0:
+            raise TrainError(f"air share {air_share} must be in [0, 1]")
+        config = replace(config, env=replace(config.env, air_probability=air_share))
     config, trainer, _ = build_trainer(config, robot, with_priors=prior_share > 0)
     template, _ = trainer.init(config.run.seed)
     learner = trainer.replicate(load_checkpoint(checkpoint, template)[0])
@@ -317,12 +331,14 @@ def _time_left(run: RunConfig, iteration: int, start: float, since: tuple[int, f
 
 
 def _line(iteration: int, m: dict[str, float]) -> str:
-    disc = m.get("disc_policy_accuracy_rollout", float("nan"))
+    nan = float("nan")
+    disc = m.get("disc_policy_accuracy_rollout", nan)
     return (
         f"iter {iteration}: reward {m['reward']:.3f} (task {m['task_reward']:.3f}, style "
         f"{m['style_reward']:.3f}), episode {m['episode_seconds']:.2f} s, falls/episode "
-        f"{m['falls_per_episode']:.2f}, waypoints {m['waypoints_per_episode']:.2f}, speed "
-        f"{m['approach_speed']:.2f} m/s, airborne {m['airborne_share']:.2f}, disc accuracy "
+        f"{m['falls_per_episode']:.2f}, waypoints {m['waypoints_per_episode']:.2f} (air "
+        f"{m.get('air_waypoints_per_episode', nan):.2f}), speed {m['approach_speed']:.2f} m/s, "
+        f"airborne {m['airborne_share']:.2f}, disc accuracy "
         f"{disc:.2f}, lr {m['learning_rate']:.2e}, kl {m['kl']:.4f}, "
         f"{m['env_steps_per_second']:.0f} env-steps/s"
     )

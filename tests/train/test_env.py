@@ -131,12 +131,19 @@ def test_fall_time_limit_and_waypoint_hit(impl_env, impl_fns, started) -> None:
     qpos = started.data.qpos.at[0, 2].set(0.3)  # env 0: base too low -> a fall
     steps = started.steps.at[1].set(impl_env.config.max_steps - 1)  # env 1: last step
     target = started.target.at[2].set(started.data.qpos[2, :3])  # env 2: on its waypoint
+    qpos = qpos.at[3, 2].add(0.5)  # env 3: lifted 0.5 m, on an air waypoint (1.1 m up)
+    target = target.at[3].set(qpos[3, :3])
     state = started.replace(data=started.data.replace(qpos=qpos), steps=steps, target=target)
     after, info = step(state, jnp.tile(impl_env.rest_action, (BATCH, 1)))
     done, truncated, hit = map(np.asarray, (info.done, info.truncated, info.hit))
     np.testing.assert_array_equal(done, [True, True, False, False])
     np.testing.assert_array_equal(truncated, [False, True, False, False])
-    np.testing.assert_array_equal(hit, [False, False, True, False])
+    np.testing.assert_array_equal(hit, [False, False, True, True])
+    # env 3's hit is an air one, after one step airborne
+    np.testing.assert_array_equal(np.asarray(info.air_target)[2:], [False, True])
+    np.testing.assert_array_equal(np.asarray(info.episode_air_reached)[2:], [0, 1])
+    np.testing.assert_array_equal(np.asarray(info.episode_longest_flight)[2:], [0, 1])
+    assert int(after.flight_steps[3]) == 1 and int(after.air_reached[3]) == 1
     # ended episodes start again (auto-reset); the final observation is the ended one's
     np.testing.assert_array_equal(np.asarray(after.steps), [0, 0, 1, 1])
     assert float(info.final_obs[0, -4]) < 0.4 and float(after.obs[0, -4]) > 0.6

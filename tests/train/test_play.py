@@ -312,3 +312,8 @@ def test_evaluate_repeats_the_runs_evaluation_and_tries_noise(run_folder: Path, 
     assert noisy["task_reward"] != pytest.approx(again["task_reward"], rel=1e-4)
     assert main(["train", "evaluate", str(run_folder), "--prior-starts", "0.5"]) == 2
     assert "need priors, and the run has none" in capsys.readouterr().err
+    assert main(["train", "evaluate", str(run_folder), "--prior", "flight"]) == 2
+    assert "no prior 'flight' in its config (its priors: none)" in capsys.readouterr().err
+    # every waypoint in the air, then none: the other kind's share has no steps to count
+    assert np.isnan(figures("--air-share", "1")["airborne_share_to_ground"])
+    assert np.isnan(figures("--air-share", "0")["airborne_share_to_air"])

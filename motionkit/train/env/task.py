@@ -66,6 +66,9 @@ class EnvState:
     deadline: jax.Array  # control steps it may take
     steps: jax.Array  # control steps in this episode
     reached: jax.Array  # waypoints reached in this episode
+    air_reached: jax.Array  # ... of them in the air
+    flight_steps: jax.Array  # control steps airborne in a row, up to now
+    longest_flight: jax.Array  # the longest such run in this episode
     origin: jax.Array  # the prior transition the episode started from (-1: standing)
     air_share: jax.Array  # chance that a new waypoint is in the air
     prior_share: jax.Array  # chance that a reset starts in a prior frame
@@ -93,6 +96,9 @@ class StepInfo:
     switches: jax.Array  # (feet,) each sole touched down or lifted off in the step
     episode_steps: jax.Array  # steps of the episode so far (its length when done)
     episode_reached: jax.Array  # waypoints reached in the episode so far
+    episode_air_reached: jax.Array  # ... of them in the air
+    episode_longest_flight: jax.Array  # the most control steps airborne in a row so far
+    air_target: jax.Array  # the waypoint pursued in the step is an air one
     prior_reset: jax.Array  # the episode ended and the next one starts in a prior frame
 
 
@@ -368,6 +374,9 @@ class Env:
             deadline=self._deadline(pose.qpos[:3], pose.target),
             steps=zero,
             reached=zero,
+            air_reached=zero,
+            flight_steps=zero,
+            longest_flight=zero,
             origin=pose.origin,
             air_share=pose.air_share,
             prior_share=pose.prior_share,
@@ -439,6 +448,11 @@ class Env:
         target = jnp.where(new, new_target, state.target)
         deadline = jnp.where(new, self._deadline(base, new_target), state.deadline)
         steps, reached = state.steps + 1, state.reached + hit.astype(jnp.int32)
+        air_target = waypoints.in_air(self.terrain, state.target, self.config)
+        air_reached = state.air_reached + (hit & air_target).astype(jnp.int32)
+        airborne = ~jnp.any(feet_down)
+        flight_steps = jnp.where(airborne, state.flight_steps + 1, 0)
+        longest_flight = jnp.maximum(state.longest_flight, flight_steps)
 
         finite = jnp.all(jnp.isfinite(data.qpos)) & jnp.all(jnp.isfinite(data.qvel))
         lift = base[2] - terrain_lib.height_at(self.terrain, base[:2])
@@ -459,11 +473,14 @@ class Env:
             timed_out=timed_out,
             hit_steps=jnp.where(hit, target_steps, 0),
             approach_speed=jnp.where(finite, approach, 0.0),
-            airborne=~jnp.any(feet_down),
+            airborne=airborne,
             feet_down=feet_down,
             switches=feet_down != self.feet_down(state.data),
             episode_steps=steps,
             episode_reached=reached,
+            episode_air_reached=air_reached,
+            episode_longest_flight=longest_flight,
+            air_target=air_target,
             prior_reset=done & (pose.origin >= 0),
         )
         stepped = state.replace(
@@ -475,6 +492,9 @@ class Env:
             deadline=deadline,
             steps=steps,
             reached=reached,
+            air_reached=air_reached,
+            flight_steps=flight_steps,
+            longest_flight=longest_flight,
             key=key,
             obs=obs,
             chi=chi,

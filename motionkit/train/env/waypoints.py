@@ -49,6 +49,12 @@ def next_waypoint(
     return jnp.array([xy[0], xy[1], height_at(terrain, xy) + lift])
 
 
+def in_air(terrain: Terrain, target: jax.Array, config: EnvConfig) -> jax.Array:
+    """Whether waypoint `target` is an air one: its height above the terrain is nearer the air
+    waypoints' lowest than the ground waypoints' base height."""
+    return lift_of(terrain, target) > 0.5 * (config.ground_height + config.air_height[0])
+
+
 def reached(position: jax.Array, target: jax.Array, radius: float) -> jax.Array:
     return jnp.sum((target - position) ** 2) < radius**2
 
