@@ -33,9 +33,17 @@ def save_checkpoint(path: Path, learner: Learner) -> None:
 def write_slim(checkpoint: Path, path: Path) -> int:
     """The checkpoint at `checkpoint` without its optimisers' moments, written to `path`; its
     size in bytes."""
-    state = {k: v for k, v in _state(Path(checkpoint)).items() if k not in OPTIMISERS}
-    data = serialization.msgpack_serialize(state)
-    with atomic_output(Path(path)) as stream:
+    return _write_slim(_state(Path(checkpoint)), Path(path))
+
+
+def save_slim(path: Path, learner: Learner) -> int:
+    """`learner` as a slim checkpoint at `path`; its size in bytes."""
+    return _write_slim(serialization.to_state_dict(jax.device_get(learner)), Path(path))
+
+
+def _write_slim(state: dict[str, Any], path: Path) -> int:
+    data = serialization.msgpack_serialize({k: v for k, v in state.items() if k not in OPTIMISERS})
+    with atomic_output(path) as stream:
         stream.write(data)
     return len(data)
 

@@ -96,6 +96,13 @@ def add_commands(
         action="store_true",
         help="store the actor's weights as float16 (half the size; actions within about 1e-3)",
     )
+    export.add_argument(
+        "--checkpoint",
+        type=Path,
+        metavar="FILE",
+        help="export this checkpoint of the run (RUN_DIR/evaluated/iter_N.msgpack, say) "
+        "instead of its latest; summary.json then holds that iteration's figures",
+    )
     robot_source(export)
     export.set_defaults(handler=_export)
     evaluation = actions.add_parser(
@@ -278,7 +285,7 @@ def _export(args: argparse.Namespace) -> int:
     from motionkit.train.policy import export_policy
 
     robot = load_robot(args.urdf, args.spec)
-    sizes = export_policy(args.run, args.out, robot, half=args.half)
+    sizes = export_policy(args.run, args.out, robot, half=args.half, checkpoint=args.checkpoint)
     files = ", ".join(f"{name} {size / 1e3:.1f} kB" for name, size in sizes.items())
     print(f"wrote {args.out}: {files} ({sum(sizes.values()) / 1e6:.2f} MB)")
     return 0

@@ -214,6 +214,10 @@ class RunConfig:
     eval_every: int = 250  # iterations between evaluations (0: only at the end)
     eval_rollouts: int = 10  # rollout chunks (of rollout_steps) per evaluation
     checkpoint_every: int = 250
+    # keep a slim checkpoint of every evaluation (OUT/evaluated/iter_N.msgpack, about a third
+    # of checkpoint.msgpack each): the figures swing between evaluations, and the best may
+    # not be the last (`train evaluate --checkpoint`, `train export --checkpoint`)
+    keep_evaluated: bool = False
     max_minutes: float = 0.0  # stop after this wall time (0: no limit)
     tensorboard: bool = True  # also write TensorBoard events (needs tensorboardX)
     # local devices the environments are split over (0 or "all": every one); parameters are

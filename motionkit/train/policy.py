@@ -13,6 +13,7 @@ POLICY_DIR/jet_model.npz    the fitted jet model, when the config's jets are not
 
 from __future__ import annotations
 
+import csv
 import json
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -129,16 +130,39 @@ def load_policy(path: Path | str | None = None) -> Policy:
     )
 
 
-def _load_run(folder: Path) -> Policy:
+def _load_run(folder: Path, checkpoint: Path | None = None) -> Policy:
+    """The policy of a run folder at its latest checkpoint, or at `checkpoint` (one of its
+    earlier ones: the summary then holds that iteration's rows of train.csv and eval.csv)."""
     config = TrainConfig.from_toml(folder / CONFIG)
-    state = _msgpack(folder / CHECKPOINT)
+    path = folder / CHECKPOINT if checkpoint is None else Path(checkpoint)
+    state = _msgpack(path)
     try:
         actor = actor_params(state["policy"], config.ppo.actor_hidden)
         norm = _norm(state["obs_norm"])
+        iteration, env_steps = int(state["iteration"]), float(state["env_steps"])
     except (KeyError, TypeError) as exc:
-        raise TrainError(f"{folder / CHECKPOINT}: not a checkpoint of this config") from exc
+        raise TrainError(f"{path}: not a checkpoint of this config") from exc
     summary = _json(folder / SUMMARY) if (folder / SUMMARY).is_file() else {}
+    if checkpoint is not None:
+        summary |= {
+            "iterations": iteration,
+            "env_steps": env_steps,
+            "checkpoint": str(path),
+            "train": _csv_row(folder / "train.csv", iteration),
+            "eval": _csv_row(folder / "eval.csv", iteration),
+        }
     return _checked(Policy(folder, config, actor, norm, {}, summary))
+
+
+def _csv_row(path: Path, iteration: int) -> dict[str, float]:
+    """The row of metrics CSV `path` at `iteration` ({} when it has none)."""
+    if not path.is_file():
+        return {}
+    with path.open(newline="") as stream:
+        for row in csv.DictReader(stream):
+            if row.get("iteration") == str(iteration):
+                return {k: float(v) for k, v in row.items() if k != "iteration" and v != ""}
+    return {}
 
 
 def _load_export(folder: Path) -> Policy:
@@ -232,7 +256,9 @@ def policy_env(policy: Policy, robot: Robot) -> Env:
 
 
 # -- export -------------------------------------------------------------------------------------
-def export_policy(run: Path, out: Path, robot: Robot, *, half: bool = False) -> dict[str, int]:
+def export_policy(
+    run: Path, out: Path, robot: Robot, *, half: bool = False, checkpoint: Path | None = None
+) -> dict[str, int]:
     """Write the policy of training run `run` into `out` (see the module doc).
 
     Nothing is written on an error.
@@ -243,6 +269,8 @@ def export_policy(run: Path, out: Path, robot: Robot, *, half: bool = False) -> 
         robot: the robot the policy acts for; its layout is written with it.
         half: store the actor's weights as float16 (half the bytes; actions within about
             1e-3 of the run's).
+        checkpoint: one of the run's earlier checkpoints (OUT/evaluated/iter_N.msgpack, say)
+            instead of its latest; the summary holds that iteration's figures.
 
     Returns:
         The bytes of each file written, by file name.
@@ -255,7 +283,9 @@ def export_policy(run: Path, out: Path, robot: Robot, *, half: bool = False) -> 
     run, out = Path(run), Path(out)
     if not ((run / CONFIG).is_file() and (run / CHECKPOINT).is_file()):
         raise TrainError(f"{run}: not a training run (no {CONFIG} and {CHECKPOINT})")
-    policy = _load_run(run)
+    if checkpoint is not None and not Path(checkpoint).is_file():
+        raise TrainError(f"{checkpoint}: no such checkpoint")
+    policy = _load_run(run, checkpoint)
     env = policy_env(policy, robot)
     config = policy.config
     files: dict[str, bytes] = {}

@@ -3,6 +3,7 @@
 OUT/config.toml             the resolved config (and the priors used)
 OUT/train.csv, eval.csv     metrics per iteration / per evaluation (+ OUT/tensorboard/)
 OUT/checkpoint.msgpack      the latest learner (resume with resume=True)
+OUT/evaluated/iter_N.msgpack  with [run] keep_evaluated: a slim checkpoint of every evaluation
 OUT/rollouts/iter_N.mcap    the first evaluation episode of environment 0, for the viewer
 OUT/summary.json            priors, last training and evaluation figures, timings
 OUT/curves.png              the training curves (redrawn at every evaluation)
@@ -23,7 +24,7 @@ from motionkit.files.outputs import check_out, claim_out, write_json_atomic, wri
 from motionkit.robot import Robot
 from motionkit.runtime.progress import Progress, silent
 from motionkit.train.amp import PriorData
-from motionkit.train.checkpoint import NAME, load_checkpoint, save_checkpoint
+from motionkit.train.checkpoint import NAME, load_checkpoint, save_checkpoint, save_slim
 from motionkit.train.config import RunConfig, TrainConfig
 from motionkit.train.curves import draw_curves
 from motionkit.train.devices import resolve_devices, resolve_impl
@@ -41,7 +42,7 @@ PHYSICS = {
 # what a run writes in its folder (see the module doc)
 OUTPUTS = (
     "config.toml", "train.csv", "eval.csv", "tensorboard", NAME, "rollouts", "summary.json",
-    "curves.png",
+    "curves.png", "evaluated",
 )  # fmt: skip
 
 
@@ -219,6 +220,8 @@ def _evaluate(
     iteration = int(learner.iteration)
     evaluation = run_evaluation(trainer, learner, robot, out, iteration)
     log.write("eval", iteration, evaluation)
+    if trainer.config.run.keep_evaluated:
+        save_slim(out / "evaluated" / f"iter_{iteration}.msgpack", learner)
     draw_curves(out)
     progress(f"eval {iteration}: " + ", ".join(f"{k[5:]} {v:.3g}" for k, v in evaluation.items()))
     return evaluation

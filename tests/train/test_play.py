@@ -31,7 +31,9 @@ def run_folder(tiny_config, robot, tmp_path_factory: pytest.TempPathFactory) -> 
     from motionkit.train.runner import train
 
     out = tmp_path_factory.mktemp("run")
-    run = replace(tiny_config.run, iterations=2, tensorboard=False)
+    run = replace(
+        tiny_config.run, iterations=2, tensorboard=False, eval_every=1, keep_evaluated=True
+    )
     train(replace(tiny_config, run=run), out, robot, progress=lambda _: None)
     return out
 
@@ -76,6 +78,32 @@ def test_export_is_small_and_holds_the_actor_only(exported: Path, run_folder: Pa
     obs = np.random.default_rng(0).standard_normal((64, policy.obs_size)).astype(np.float32)
     act, act_half = policy.act_fn(), load_policy(half).act_fn()
     assert np.abs(np.asarray(act(obs)) - np.asarray(act_half(obs))).max() < 1e-3
+
+
+@slow
+def test_an_evaluated_checkpoint_is_kept_and_exports(run_folder: Path, tmp_path: Path) -> None:
+    import csv
+
+    kept = run_folder / "evaluated"
+    assert sorted(p.name for p in kept.iterdir()) == ["iter_1.msgpack", "iter_2.msgpack"]
+    first = serialization.msgpack_restore((kept / "iter_1.msgpack").read_bytes())
+    assert int(first["iteration"]) == 1 and "policy_opt" not in first  # slim
+    out = tmp_path / "first"
+    assert main(["train", "export", str(run_folder), "--out", str(out),
+                 "--checkpoint", str(kept / "iter_1.msgpack")]) == 0  # fmt: skip
+    summary = json.loads((out / "summary.json").read_text())
+    rows = list(csv.DictReader((run_folder / "eval.csv").open()))
+    assert [r["iteration"] for r in rows] == ["1", "2"] and summary["iterations"] == 1
+    assert summary["eval"]["eval_task_reward"] == pytest.approx(float(rows[0]["eval_task_reward"]))
+    assert summary["checkpoint"].endswith("iter_1.msgpack")
+    latest, earlier = load_policy(run_folder), load_policy(out)
+    assert not np.array_equal(
+        latest.actor["params"]["Dense_0"]["kernel"], earlier.actor["params"]["Dense_0"]["kernel"]
+    )  # one update apart
+    missing = tmp_path / "none"
+    assert main(["train", "export", str(run_folder), "--out", str(missing),
+                 "--checkpoint", str(kept / "iter_9.msgpack")]) == 2  # fmt: skip
+    assert not missing.exists()
 
 
 # -- play ---------------------------------------------------------------------------------------
