@@ -13,7 +13,6 @@ POLICY_DIR/jet_model.npz    the fitted jet model, when the config's jets are not
 
 from __future__ import annotations
 
-import csv
 import json
 from collections.abc import Callable
 from dataclasses import dataclass, replace
@@ -156,13 +155,14 @@ def _load_run(folder: Path, checkpoint: Path | None = None) -> Policy:
 
 def _csv_row(path: Path, iteration: int) -> dict[str, float]:
     """The row of metrics CSV `path` at `iteration` ({} when it has none)."""
-    if not path.is_file():
+    from motionkit.train.curves import read_table
+
+    table = read_table(path)
+    rows = np.flatnonzero(table.get("iteration", np.empty(0)) == iteration)
+    if not len(rows):
         return {}
-    with path.open(newline="") as stream:
-        for row in csv.DictReader(stream):
-            if row.get("iteration") == str(iteration):
-                return {k: float(v) for k, v in row.items() if k != "iteration" and v != ""}
-    return {}
+    row = {name: float(column[rows[0]]) for name, column in table.items() if name != "iteration"}
+    return {name: value for name, value in row.items() if not np.isnan(value)}
 
 
 def _load_export(folder: Path) -> Policy:

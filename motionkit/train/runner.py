@@ -227,11 +227,16 @@ def _evaluate(
     return evaluation
 
 
+def evaluation_key(seed: int, iteration: int) -> jax.Array:
+    """The key of a run's evaluation at `iteration` (train and `train evaluate` alike)."""
+    return jax.random.fold_in(jax.random.key(seed + 1), iteration)
+
+
 def run_evaluation(
     trainer: Trainer, learner: Learner, robot: Robot, out: Path, iteration: int
 ) -> dict[str, float]:
     config = trainer.config
-    key = jax.random.fold_in(jax.random.key(config.run.seed + 1), iteration)
+    key = evaluation_key(config.run.seed, iteration)
     metrics, arrays = evaluate(trainer, learner, key, config.run.eval_rollouts)
     meta = {"iteration": iteration, "scenario": config.env.scenario, "clip": f"iter_{iteration}"}
     save_rollout(
@@ -299,7 +304,7 @@ def evaluate_run(
     template, _ = trainer.init(config.run.seed)
     learner = trainer.replicate(load_checkpoint(checkpoint, template)[0])
     seed = config.run.seed if seed is None else seed
-    key = jax.random.fold_in(jax.random.key(seed + 1), int(learner.iteration))
+    key = evaluation_key(seed, int(learner.iteration))
     chunks = config.run.eval_rollouts
     return evaluate(trainer, learner, key, chunks, prior_share, noise)[0]
 
