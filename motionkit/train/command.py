@@ -64,6 +64,13 @@ def add_commands(
         help="continue from this checkpoint file (full or slim; from another run folder or "
         "machine) in --out, which gets a copy of it",
     )
+    parser.add_argument(
+        "--jets-at-rest",
+        action="store_true",
+        help="with --resume-from: the policy's jet outputs start at the rest action (their "
+        "weights zero), for a checkpoint trained with another [env] jet_action; the rest of "
+        "what it learned is kept",
+    )
     parser.set_defaults(handler=_train)
     actions = parser.add_subparsers(dest="train_command", metavar="ACTION")
     ablation = actions.add_parser(
@@ -255,14 +262,23 @@ def _train(args: argparse.Namespace) -> int:
     robot = load_robot(args.urdf, args.spec)
     enable_compile_cache()
     resume = args.resume
+    if args.jets_at_rest and args.resume_from is None:
+        raise TrainError("--jets-at-rest needs --resume-from CHECKPOINT (another run's)")
     if args.resume_from is not None:
         from motionkit.train.checkpoint import place_checkpoint
 
         check_out(args.out, OUTPUTS, TrainError)  # (before the copy: a foreign file refused)
         if place_checkpoint(args.out, args.resume_from, "--resume-from"):
             _print(f"copied {args.resume_from} to {args.out}")
+        elif args.jets_at_rest:
+            raise TrainError(
+                f"--jets-at-rest: {args.resume_from} is the run's own checkpoint; its jets "
+                "were set at rest when the run began (pass --resume)"
+            )
         resume = True
-    summary = train(config, args.out, robot, resume=resume, progress=_print)
+    summary = train(
+        config, args.out, robot, resume=resume, jets_at_rest=args.jets_at_rest, progress=_print
+    )
     print(f"wrote {args.out}: {summary['iterations']} iterations in {summary['seconds']:.0f} s")
     return 0
 

@@ -19,6 +19,7 @@ SCENARIOS = ("flat", "terrain")
 JETS = ("ideal", "lstm", "grey_box", "selected")  # the last three: models of jet_model
 ACTION_MAPPINGS = ("range", "stand")
 LR_SCHEDULES = ("constant", "adaptive")
+JET_ACTIONS = ("rate", "thrust")  # what the ideal jet's action sets
 # "auto": MJX on JAX where a GPU is present, else MuJoCo; "jax": MJX on JAX (any device);
 # "warp": MJX on MuJoCo Warp (NVIDIA GPUs); "mujoco": MuJoCo C on the CPU's cores
 IMPLS = ("auto", "jax", "warp", "mujoco")
@@ -37,11 +38,15 @@ class EnvConfig:
     action_mapping: str = "range"
     action_scale: float = 0.7
     reset_from_prior: float = 0.85  # chance that a reset starts in a prior frame (else standing)
-    # "ideal": action = thrust rate; "lstm", "grey_box" or "selected" (the one of the two that
-    # won jet-ident's validation): action = throttle, the model from jet_model
+    # "ideal": a jet whose thrust moves at up to thrust_rate_max; "lstm", "grey_box" or
+    # "selected" (the one of the two that won jet-ident's validation): action = throttle, the
+    # model from jet_model
     jet: str = "ideal"
     jet_model: str = ""  # model.npz written by `motionkit jet-ident fit` (jet other than ideal)
     thrust_rate_max: float = 300.0  # N/s, ideal jet
+    # the ideal jet's action: "rate": the thrust rate a * thrust_rate_max; "thrust": the thrust
+    # set point (a + 1) / 2 * T_max, approached at up to thrust_rate_max (as a throttle is)
+    jet_action: str = "rate"
     initial_thrust: tuple[float, float] = (0.0, 0.0)  # N per jet at a standing reset (ideal jet)
     min_base_height: float = 0.4  # m above the terrain; lower ends the episode (a fall)
     waypoint_distance: tuple[float, float] = (0.7, 2.0)  # m between consecutive waypoints
@@ -78,6 +83,7 @@ class EnvConfig:
         check(self, TrainError, SCENARIOS, "scenario")
         check(self, TrainError, JETS, "jet")
         check(self, TrainError, ACTION_MAPPINGS, "action_mapping")
+        check(self, TrainError, JET_ACTIONS, "jet_action")
         check(self, TrainError, IMPLS, "impl")
         if self.jet != "ideal" and not self.jet_model:
             raise TrainError(
@@ -93,6 +99,11 @@ class EnvConfig:
         check(self, TrainError, "in [0, 1]", "air_probability", "reset_from_prior")
         check(self, TrainError, ">= 0", "waypoint_distance", "air_height", "initial_thrust")
         check(self, TrainError, "[low, high]", "waypoint_distance", "air_height", "initial_thrust")
+        if self.jet != "ideal" and self.jet_action != "rate":
+            raise TrainError(
+                f"jet_action = '{self.jet_action}' needs jet = 'ideal' (a fitted jet's action "
+                "is its throttle)"
+            )
         if self.jet != "ideal" and self.initial_thrust != (0.0, 0.0):
             raise TrainError("'initial_thrust' needs jet = 'ideal' (the LSTM starts at idle)")
         if self.waypoint_timeout and self.timeout_factor + self.timeout_extra <= 0:

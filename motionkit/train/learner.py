@@ -210,6 +210,20 @@ class Trainer:
         )
         return self.replicate(learner), self.new_carry(k_env, k_run)
 
+    def jets_at_rest(self, learner: Learner) -> Learner:
+        """`learner` with its policy's jet outputs at the environment's rest action (the mean
+        layer's jet rows zero, their bias the rest action): a policy trained with another jet
+        action starts with its jets at rest and keeps the rest of what it learned."""
+        env, layers = self.env, dict(learner.policy["params"])
+        name = f"Dense_{len(self.config.ppo.actor_hidden)}"
+        jets = slice(env.num_joints, env.action_size)
+        mean = dict(layers[name])
+        mean["kernel"] = mean["kernel"].at[:, jets].set(0.0)
+        mean["bias"] = mean["bias"].at[jets].set(env.rest_action[jets])
+        layers[name] = mean
+        policy = dict(learner.policy) | {"params": layers}
+        return learner.replace(policy=policy, policy_opt=self.policy_tx.init(policy))
+
     def replicate(self, tree: Any) -> Any:
         """`tree` (a learner, a replay buffer) on every device of the mesh."""
         return jax.device_put(tree, replicated(self.mesh))

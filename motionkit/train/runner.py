@@ -91,6 +91,7 @@ def train(
     robot: Robot,
     *,
     resume: bool = False,
+    jets_at_rest: bool = False,
     progress: Progress = silent,
     stop: Callable[[dict[str, float]], bool] | None = None,
 ) -> dict[str, Any]:
@@ -106,6 +107,8 @@ def train(
         robot: the robot to train.
         resume: continue the run in `out` from its checkpoint; False needs a folder without
             one.
+        jets_at_rest: on resuming, set the policy's jet outputs to the rest action (for a
+            checkpoint trained with another jet action, `Trainer.jets_at_rest`).
         progress: called with each line of progress.
         stop: called with each evaluation's figures; True ends the run early.
 
@@ -131,6 +134,8 @@ def train(
     learner, carry = trainer.init(run.seed)
     if resume:  # checked before anything is written
         restored, slim = load_checkpoint(checkpoint, learner)
+        if jets_at_rest:
+            restored = trainer.jets_at_rest(restored)
         learner = trainer.replicate(restored)
         key = jax.random.fold_in(jax.random.key(run.seed), int(learner.iteration))
         carry = trainer.new_carry(*jax.random.split(key))
@@ -139,6 +144,8 @@ def train(
     if resume:
         moments = " (a slim checkpoint: the optimisers' moments start afresh)" if slim else ""
         progress(f"resumed {out} at iteration {int(learner.iteration)}{moments}")
+        if jets_at_rest:
+            progress(f"the policy's jet outputs start at rest ({config.env.jet_action} action)")
     log = MetricsLog(out, run.tensorboard)
     if log.note:
         progress(log.note)

@@ -61,6 +61,11 @@ def test_round_trip_through_toml(tmp_path: Path) -> None:
         ("[ppo]\nnum_envs = 10\nminibatch_size = 7\n", "multiple of minibatch_size"),
         ("[env]\nscenario = 'moon'\n", "scenario"),
         ("[env]\njet = 'lstm'\n", "jet_model"),
+        ("[env]\njet_action = 'throttle'\n", "jet_action"),
+        (
+            "[env]\njet = 'lstm'\njet_model = 'm.npz'\njet_action = 'thrust'\n",
+            "jet_action = 'thrust' needs jet = 'ideal'",
+        ),
         ("[ppo]\ngamma = 'high'\n", "'gamma' should be float"),
         ("[reward]\nw_fly = 1.0\n", "unknown keys ['w_fly']"),
         ("[trainer]\n", "unknown keys ['trainer']"),

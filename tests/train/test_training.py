@@ -140,11 +140,41 @@ def test_resume_from_a_carried_checkpoint_into_a_new_folder(
     recipe.write_text(replace(config, run=replace(config.run, eval_every=0)).to_toml())
     out = tmp_path / "new"
     args = ["train", "--config", str(recipe), "--out", str(out), "--resume-from", str(carried)]
-    assert at >= ITERATIONS and main([*args, "--iterations", str(at + 1)]) == 0
+    assert at >= ITERATIONS and main([*args, "--iterations", str(at + 1), "--jets-at-rest"]) == 0
     printed = capsys.readouterr().out
     assert f"copied {carried} to {out}" in printed
     assert f"resumed {out} at iteration {at}" in printed
+    assert "the policy's jet outputs start at rest (rate action)" in printed
     assert read_csv(out / "train.csv")["iteration"].tolist() == [at + 1]
+    resumed = ["train", "--config", str(recipe), "--out", str(out), "--iterations", str(at + 2)]
+    with pytest.raises(TrainError, match="the run's own checkpoint"):
+        main([*resumed, "--resume-from", str(out / "checkpoint.msgpack"), "--jets-at-rest"])
+    with pytest.raises(TrainError, match="--jets-at-rest needs --resume-from"):
+        main([*resumed, "--resume", "--jets-at-rest"])
+
+
+def test_jets_at_rest_keeps_the_joints(env, tiny_config) -> None:
+    """Trainer.jets_at_rest: the mean's jet outputs are the rest action for any observation,
+    the joints' outputs are unchanged."""
+    import jax
+    import jax.numpy as jnp
+
+    from motionkit.train.learner import Trainer
+
+    config = replace(tiny_config, env=env.config, priors={})
+    trainer = Trainer(config, env)
+    learner, _ = trainer.init(0)
+    noisy = jax.tree.map(lambda x: x + 0.1, learner.policy)  # jet outputs away from rest
+    learner = learner.replace(policy=noisy)
+    obs = jax.random.normal(jax.random.key(1), (5, env.obs_size))
+    before = trainer.net.apply(learner.policy, obs)[0]
+    after = trainer.net.apply(trainer.jets_at_rest(learner).policy, obs)[0]
+    joints = env.num_joints
+    np.testing.assert_array_equal(np.asarray(after[:, :joints]), np.asarray(before[:, :joints]))
+    rest = np.broadcast_to(np.asarray(env.rest_action[joints:]), (5, env.num_jets))
+    np.testing.assert_array_equal(np.asarray(after[:, joints:]), rest)
+    assert not np.allclose(np.asarray(before[:, joints:]), rest)
+    assert jnp.all(jnp.isfinite(after))
 
 
 def test_place_checkpoint_refusals(tmp_path: Path) -> None:

@@ -2,9 +2,10 @@
 box, through `motionkit.jet_ident.step.thrust_next`), its idle thrust, and the model state of a
 jet resting at a given thrust, so that an episode can start mid-flight.
 
-Actions in [-1, 1] map to the jet input: the ideal jet's thrust rate a * thrust_rate_max, or
-the fitted model's throttle 50 + 50 a [%]. The rest action holds the thrust (ideal jet) or
-idles (fitted models).
+Actions in [-1, 1] map to the jet input: the ideal jet's thrust rate a * thrust_rate_max
+(jet_action "rate") or its thrust set point (a + 1) / 2 * T_max, approached at up to
+thrust_rate_max ("thrust"), or the fitted model's throttle 50 + 50 a [%]. The rest action
+holds the thrust (rate) or sets it to 0 (set point, throttle: the fitted models idle).
 """
 
 from __future__ import annotations
@@ -66,7 +67,7 @@ class Jets:
                 dt=config.control_dt, t_max=float(np.max(t_max)), rate_max=config.thrust_rate_max
             )
             self.idle = 0.0
-            self.rest_action = 0.0  # thrust rate 0: hold
+            self.rest_action = 0.0 if config.jet_action == "rate" else -1.0  # hold, or 0 N
             self._table = None
 
     def _steady_thrust(self, throttles: np.ndarray) -> np.ndarray:
@@ -112,8 +113,10 @@ class Jets:
 
     def step(self, state: Any, thrust: jax.Array, action: jax.Array) -> tuple[Any, jax.Array]:
         """One control step of every jet: (model state, thrust [N]) after `action` (jets,)."""
-        if isinstance(self.params, IdealThrust):
+        if isinstance(self.params, IdealThrust) and self.config.jet_action == "rate":
             u = action * self.config.thrust_rate_max
+        elif isinstance(self.params, IdealThrust):  # the rate toward the set point (clipped)
+            u = ((action + 1.0) / 2.0 * self.t_max - thrust) / self.params.dt
         else:
             u = 50.0 + 50.0 * action
         per_jet = jax.vmap(thrust_next, in_axes=(None, 0, 0, 0))
