@@ -212,8 +212,9 @@ class Trainer:
 
     def jets_at_rest(self, learner: Learner) -> Learner:
         """`learner` with its policy's jet outputs at the environment's rest action (the mean
-        layer's jet rows zero, their bias the rest action): a policy trained with another jet
-        action starts with its jets at rest and keeps the rest of what it learned."""
+        layer's jet columns of weights zero, their bias the rest action), and fresh policy
+        optimiser moments: a policy trained with another jet action starts with its jets at
+        rest and keeps the rest of what it learned."""
         env, layers = self.env, dict(learner.policy["params"])
         name = f"Dense_{len(self.config.ppo.actor_hidden)}"
         jets = slice(env.num_joints, env.action_size)
