@@ -43,7 +43,7 @@ def untrained(recipe: str) -> Policy:
         env.action_size,
         config.ppo.actor_hidden,
         config.ppo.critic_hidden,
-        config.ppo.init_std,
+        config.ppo.action_std(env.num_joints, env.num_jets),
         config.ppo.learn_std,
         tuple(float(a) for a in env.rest_action),
     )

@@ -159,6 +159,9 @@ class PpoConfig:
     # 1 / std^2. At 0.01 (which a robot standing under that noise survives; 0.05 topples it) the
     # walking recipe learned nothing on a CPU where 0.05 learned to stand (docs/train.md)
     init_std: float = 0.05
+    # the std of the jet actions (0: init_std). The jets' thrust set points are 4 of the robot's
+    # outputs and need to move far from rest (0 N) to hover (44 % of T_max per jet)
+    jet_std: float = 0.0
     learn_std: bool = False
     # std of the initial weights of the actor's mean layer: the mean starts at the rest action
     # plus about mean_init_scale * sqrt(last hidden width) of noise from the observation. At
@@ -168,12 +171,16 @@ class PpoConfig:
     actor_hidden: tuple[int, ...] = (512, 256, 128)
     critic_hidden: tuple[int, ...] = (512, 256, 128)
 
+    def action_std(self, joints: int, jets: int) -> tuple[float, ...]:
+        """The std of each action: the joints' (init_std), then the jets' (jet_std or init_std)."""
+        return (self.init_std,) * joints + (self.jet_std or self.init_std,) * jets
+
     def __post_init__(self) -> None:
         check(self, TrainError, ">= 1", "num_envs", "rollout_steps", "epochs", "minibatch_size")
         check(self, TrainError, ">= 1", "actor_hidden", "critic_hidden")
         check(self, TrainError, "> 0", "learning_rate", "kl_target", "clip", "init_std")
         check(self, TrainError, "> 0", "max_grad_norm")
-        check(self, TrainError, ">= 0", "mean_init_scale")
+        check(self, TrainError, ">= 0", "mean_init_scale", "jet_std")
         check(self, TrainError, ">= 0", "value_clip", "entropy_coef", "value_coef", "bounds_coef")
         check(self, TrainError, "in (0, 1]", "gamma", "lam")
         check(self, TrainError, LR_SCHEDULES, "lr_schedule")

@@ -137,7 +137,7 @@ class Trainer:
             env.action_size,
             ppo.actor_hidden,
             ppo.critic_hidden,
-            ppo.init_std,
+            ppo.action_std(env.num_joints, env.num_jets),
             ppo.learn_std,
             tuple(float(a) for a in env.rest_action),
             ppo.mean_init_scale,

@@ -15,12 +15,12 @@ LOG_2PI = jnp.log(2 * jnp.pi)
 class ActorCritic(nn.Module):
     """A Gaussian policy (MLP mean, state-independent std, learned or fixed) and a value MLP
     (ELU). The mean starts near `action_bias` (the environment's rest action): the mean layer's
-    weights start at std `mean_init_scale`."""
+    weights start at std `mean_init_scale`. `init_std`: one std for every action, or one each."""
 
     actions: int
     actor_hidden: Sequence[int]
     critic_hidden: Sequence[int]
-    init_std: float = 1.0
+    init_std: float | Sequence[float] = 1.0
     learn_std: bool = True
     action_bias: Sequence[float] | None = None
     mean_init_scale: float = 0.01  # std of the mean layer's initial weights
@@ -38,12 +38,11 @@ class ActorCritic(nn.Module):
             kernel_init=nn.initializers.normal(self.mean_init_scale),
             bias_init=lambda *_: bias,
         )(x)
+        initial = jnp.log(jnp.broadcast_to(jnp.asarray(self.init_std, jnp.float32), self.actions))
         if self.learn_std:
-            log_std = self.param(
-                "log_std", nn.initializers.constant(jnp.log(self.init_std)), (self.actions,)
-            )
+            log_std = self.param("log_std", lambda *_: initial)
         else:
-            log_std = jnp.full(self.actions, jnp.log(self.init_std))
+            log_std = initial
         v = obs
         for width in self.critic_hidden:
             v = nn.elu(nn.Dense(width)(v))

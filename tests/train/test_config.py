@@ -80,6 +80,7 @@ def test_round_trip_through_toml(tmp_path: Path) -> None:
         ("[env]\naction_mapping = 'wild'\n", "action_mapping"),
         ("[ppo]\nlr_schedule = 'cosine'\n", "lr_schedule"),
         ("[ppo]\nvalue_clip = -0.1\n", "[ppo]: 'value_clip' should be finite and >= 0"),
+        ("[ppo]\njet_std = -0.2\n", "[ppo]: 'jet_std' should be finite and >= 0"),
         ("[amp]\nreplay_keep = 0.0\n", "replay_keep"),
         ("[amp]\nlogit_reg = nan\n", "[amp]: 'logit_reg' should be finite and >= 0, got nan"),
     ],
@@ -90,6 +91,13 @@ def test_bad_configs_are_refused(tmp_path: Path, text: str, message: str) -> Non
     with pytest.raises(TrainError, match=None) as error:
         TrainConfig.from_toml(path)
     assert message in str(error.value)
+
+
+def test_action_std_gives_the_jets_their_own() -> None:
+    ppo = TrainConfig().ppo
+    assert ppo.action_std(2, 1) == (0.05, 0.05, 0.05)  # jet_std 0: init_std for all
+    ppo = TrainConfig.from_dict({"ppo": {"init_std": 0.07, "jet_std": 0.2}}).ppo
+    assert ppo.action_std(3, 2) == (0.07, 0.07, 0.07, 0.2, 0.2)
 
 
 def test_missing_file() -> None:

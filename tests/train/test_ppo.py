@@ -121,6 +121,16 @@ def test_fixed_std_and_the_initial_mean() -> None:
 
 
 @pytest.mark.parametrize("learn_std", [False, True])
+def test_one_std_per_action(learn_std: bool) -> None:
+    stds = (0.07, 0.07, 0.2)
+    net = ppo.ActorCritic(3, (8,), (8,), init_std=stds, learn_std=learn_std)
+    params = net.init(jax.random.key(0), jnp.zeros((1, 5)))
+    _, log_std, _ = net.apply(params, jnp.zeros((2, 5)))
+    np.testing.assert_allclose(np.exp(np.asarray(log_std)), [stds] * 2, rtol=1e-6)
+    assert ("log_std" in params["params"]) == learn_std
+
+
+@pytest.mark.parametrize("learn_std", [False, True])
 def test_the_actor_alone_gives_the_actor_critics_mean(learn_std: bool) -> None:
     net = ppo.ActorCritic(5, (16, 8), (12,), 0.5, learn_std, (0.1, 0.2, 0.3, 0.4, 0.5))
     params = net.init(jax.random.key(0), jnp.zeros((1, 7)))
