@@ -15,15 +15,17 @@ from motionkit.core.errors import TrainError
 
 pytestmark = pytest.mark.slow  # compiles the rollout and the update (about 1-2 minutes)
 
-ITERATIONS = 160  # at 80 the trend was within the noise on one CPU's float path (see below)
+ITERATIONS = 160
 
 
 def learning_config(config):
-    """The tiny recipe with fast jets (3,000 N/s): random jet inputs blow the robot about and
-    cost thrust penalty, so a quick, clear task to learn is to throttle them down."""
+    """The tiny recipe with fast jets (3,000 N/s) and a thrust penalty of weight 0.5 (not 0.11):
+    random jet inputs blow the robot about and cost thrust penalty, so a quick, clear task to
+    learn is to throttle them down."""
     env = replace(config.env, thrust_rate_max=3000.0)
+    reward = replace(config.reward, w_thrust=0.5)
     run = replace(config.run, iterations=ITERATIONS, checkpoint_every=ITERATIONS, seed=0)
-    return replace(config, env=env, run=run)
+    return replace(config, env=env, reward=reward, run=run)
 
 
 @pytest.fixture(scope="module")
@@ -58,17 +60,16 @@ def test_discriminator_separates_prior_from_policy_motion(run_folder: Path) -> N
 
 def test_task_reward_rises(run_folder: Path) -> None:
     """Over the rest of the run the task reward is higher and the thrust penalty lower than in
-    its first ten iterations. Not the last ten alone: the seeded run follows XLA's float path
-    (jax version, sharding), and its last ten moved with it (task reward 0.38-0.51, thrust
-    penalty 0.38-1.12 of the first ten's in three runs; over the rest 0.43-0.49 and 0.59-0.81).
-    On a Xeon with AMX the first 80 iterations rose by 0.011 only (0.415 to 0.426, thrust penalty
-    -0.92 to -0.86); over 160 the rest averages 0.448 and -0.79."""
+    its first ten iterations. With the thrust weight at 0.11 the rise was within the noise of
+    the float path (seed 0 on an AMX Xeon: +0.017, thrust penalty -0.94 to -0.85); at 0.5,
+    seeds 0, 1 and 2 there rose by 0.195, 0.231 and 0.244, the penalty falling to 0.50, 0.44
+    and 0.44 of the first ten's."""
     log = read_csv(run_folder / "train.csv")
     rest = slice(10, ITERATIONS)
     first, later = log["task_reward"][:10].mean(), log["task_reward"][rest].mean()
-    assert later > first + 0.02, (first, later)
+    assert later > first + 0.1, (first, later)
     thrust_first, thrust_later = log["reward_thrust"][:10].mean(), log["reward_thrust"][rest].mean()
-    assert thrust_later > 0.9 * thrust_first, (thrust_first, thrust_later)  # penalties are < 0
+    assert thrust_later > 0.7 * thrust_first, (thrust_first, thrust_later)  # penalties are < 0
 
 
 def test_run_folder_contents(run_folder: Path, robot) -> None:
