@@ -168,7 +168,11 @@ def test_the_swing_term_reads_each_soles_lift_and_speed(impl_env, started) -> No
     down = env.feet_down(after)
     assert not bool(down[0]) and bool(down[1])
     clearance = env.sole_clearance(after)
-    assert float(env._swing(data, after, clearance)) == pytest.approx(0.375, rel=1e-4)
+    ground = jnp.array([1.0, 0.0, env.config.ground_height])  # the tiny scenario is flat
+    assert float(env._swing(data, after, clearance, ground)) == pytest.approx(0.375, rel=1e-4)
     # the same step with the right sole lifted too (no foot down) earns nothing
     both = after.replace(site_xpos=moved.at[right, 2].add(0.2))
-    assert float(env._swing(data, both, env.sole_clearance(both))) == 0.0
+    assert float(env._swing(data, both, env.sole_clearance(both), ground)) == 0.0
+    # nor does the same step on the way to an air waypoint (1.2 m up)
+    air = ground.at[2].set(env.config.ground_height + 0.6)
+    assert float(env._swing(data, after, clearance, air)) == 0.0

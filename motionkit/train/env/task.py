@@ -273,14 +273,18 @@ class Env:
         """(feet,) whether each sole is within AIRBORNE_CLEARANCE of the terrain."""
         return self.sole_clearance(data) <= AIRBORNE_CLEARANCE
 
-    def _swing(self, before: Any, data: Any, clearance: jax.Array) -> jax.Array:
+    def _swing(
+        self, before: Any, data: Any, clearance: jax.Array, target: jax.Array
+    ) -> jax.Array:
         """The swing term of the step from `before` to `data` (`rewards.swing_reward`), given
-        the soles' clearance after it."""
+        the soles' clearance after it; 0 on the way to an air waypoint, where steps beneath it
+        would pay what a flight to it cannot."""
         moved = data.site_xpos[self.sole_sites, :2] - before.site_xpos[self.sole_sites, :2]
         speed = jnp.linalg.norm(moved, axis=-1) / self.config.control_dt
         down = clearance <= AIRBORNE_CLEARANCE
         config = self.reward_config
-        return swing_reward(clearance, speed, down, config.swing_height, config.v_desired)
+        swing = swing_reward(clearance, speed, down, config.swing_height, config.v_desired)
+        return jnp.where(waypoints.in_air(self.terrain, target, self.config), 0.0, swing)
 
     def joint_targets(self, joint_actions: jax.Array) -> jax.Array:
         return jnp.clip(
@@ -426,7 +430,7 @@ class Env:
         clearance = self.sole_clearance(data)
         feet_down = clearance <= AIRBORNE_CLEARANCE
         if self.reward_config.w_swing > 0:
-            terms["swing"] = self._swing(state.data, data, clearance)
+            terms["swing"] = self._swing(state.data, data, clearance, state.target)
         reward = task_reward(terms, self.reward_config)
         offset = (state.target - base)[:2]
         approach = jnp.dot(velocity[:2], offset) / (jnp.linalg.norm(offset) + 1e-6)
