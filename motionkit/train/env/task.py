@@ -273,9 +273,7 @@ class Env:
         """(feet,) whether each sole is within AIRBORNE_CLEARANCE of the terrain."""
         return self.sole_clearance(data) <= AIRBORNE_CLEARANCE
 
-    def _swing(
-        self, before: Any, data: Any, clearance: jax.Array, target: jax.Array
-    ) -> jax.Array:
+    def _swing(self, before: Any, data: Any, clearance: jax.Array, target: jax.Array) -> jax.Array:
         """The swing term of the step from `before` to `data` (`rewards.swing_reward`), given
         the soles' clearance after it; 0 on the way to an air waypoint, where steps beneath it
         would pay what a flight to it cannot."""
