@@ -57,6 +57,6 @@ def test_the_installed_package_plays_its_shipped_policy(installed: Path, tmp_pat
     result = run(installed, tmp_path, "motionkit", "play", "--waypoints", "1.5,0,0.6 3,1,0.6",
                  "--out", "plays")  # fmt: skip
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-2000:]
-    assert "site-packages" in result.stdout and "policies/walk" in result.stdout
+    assert "site-packages" in result.stdout and "policies/walk_fly" in result.stdout
     assert result.stdout.count(": reached at ") == 2 and "x real time" in result.stdout
     assert (tmp_path / "plays" / "play.mcap").stat().st_size > 0

@@ -32,7 +32,7 @@ share of the way with both soles off the ground), the share on one foot and the 
 switches per foot per second, the mean thrust; falls; the real-time factor (simulated / wall
 seconds, compilation not counted).
 
-  motionkit play --waypoints "1.5,0,0.6 3,1,0.6" --out plays   # the shipped walking policy
+  motionkit play --waypoints "1.5,0,0.6 3,1,0.6" --out plays   # the shipped policy
 
   motionkit play --policy runs/tiny --waypoints "1,0,0.6 1,1,1.2" --out plays
   motionkit play --policy policies/walk_fly --random-route 6 --seed 3 --out plays

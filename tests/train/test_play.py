@@ -198,6 +198,18 @@ def test_the_shipped_policy_walks_to_both_waypoints(robot, tmp_path: Path, capsy
     assert all(c.ok or c.warning for c in checks), [c for c in checks if not c.ok]
 
 
+def test_the_shipped_policy_walks_then_flies(tmp_path: Path, capsys) -> None:
+    """One policy, both modes: it walks to a ground waypoint (airborne under half the way) and
+    flies to the air waypoint after it, without a fall."""
+    out = tmp_path / "plays"
+    assert main(["play", "--waypoints", "1.5,0,0.6 3,1,1.2", "--out", str(out)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    legs = [line for line in lines if line.startswith("waypoint ")]
+    assert len(legs) == 2 and all(": reached at " in line for line in legs)
+    assert "walking (airborne" in legs[0] and "flying (airborne" in legs[1]
+    assert any(line.endswith("falls: 0") for line in lines)
+
+
 def test_the_gait_counters_of_a_way() -> None:
     from motionkit.train.play import Leg
 
