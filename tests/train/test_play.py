@@ -180,15 +180,22 @@ def test_another_robot_layout_is_refused(exported: Path, tmp_path: Path, capsys)
     assert not out.exists()
 
 
+def play_shipped(waypoints: str, out: Path, capsys) -> tuple[list[str], list[str]]:
+    """Plays the default policy along two waypoints; its printed lines and the two legs' lines,
+    both reached."""
+    assert main(["play", "--waypoints", waypoints, "--out", str(out)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    legs = [line for line in lines if line.startswith("waypoint ")]
+    assert len(legs) == 2 and all(": reached at " in line for line in legs)
+    return lines, legs
+
+
 def test_the_shipped_policy_walks_to_both_waypoints(robot, tmp_path: Path, capsys) -> None:
     """The README's first play: the default policy walks (alternating single support, at
     least the walking goals: on one foot >= 25 %, >= 1 switch per foot per second) to both
     waypoints without a fall, and its clip validates."""
     out = tmp_path / "plays"
-    assert main(["play", "--waypoints", "1.5,0,0.6 3,1,0.6", "--out", str(out)]) == 0
-    lines = capsys.readouterr().out.splitlines()
-    legs = [line for line in lines if line.startswith("waypoint ")]
-    assert len(legs) == 2 and all(": reached at " in line for line in legs)
+    lines, legs = play_shipped("1.5,0,0.6 3,1,0.6", out, capsys)
     for line in legs:
         single, switches = re.search(r"on one foot (\d+) %, (\d+\.\d) contact", line).groups()
         assert "walking (airborne" in line and int(single) >= 25 and float(switches) >= 1.0
@@ -201,11 +208,7 @@ def test_the_shipped_policy_walks_to_both_waypoints(robot, tmp_path: Path, capsy
 def test_the_shipped_policy_walks_then_flies(tmp_path: Path, capsys) -> None:
     """One policy, both modes: it walks to a ground waypoint (airborne under half the way) and
     flies to the air waypoint after it, without a fall."""
-    out = tmp_path / "plays"
-    assert main(["play", "--waypoints", "1.5,0,0.6 3,1,1.2", "--out", str(out)]) == 0
-    lines = capsys.readouterr().out.splitlines()
-    legs = [line for line in lines if line.startswith("waypoint ")]
-    assert len(legs) == 2 and all(": reached at " in line for line in legs)
+    lines, legs = play_shipped("1.5,0,0.6 3,1,1.2", tmp_path / "plays", capsys)
     assert "walking (airborne" in legs[0] and "flying (airborne" in legs[1]
     assert any(line.endswith("falls: 0") for line in lines)
 
