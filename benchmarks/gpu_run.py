@@ -67,10 +67,16 @@ eval.csv, summary.json, checkpoint.msgpack, rollouts/ and tensorboard/, and
 
 Without --resume, an --out that holds a checkpoint is refused. With --resume CHECKPOINT (full
 or slim) the file is copied to OUT/checkpoint.msgpack (unless it is that file) and training
-continues up to [run] iterations. The small overrides (--num-envs ...) are for smoke runs on a CPU.
-Errors in the inputs print one line `error: ...` and exit with status 2.
+continues up to [run] iterations; --jets-at-rest sets the policy's jet outputs at rest first
+(a checkpoint of another jet action: walk_gpu's rate to fly_gpu's thrust set point). The small
+overrides (--num-envs ...) are for smoke runs on a CPU. Errors in the inputs print one line
+`error: ...` and exit with status 2. Walking, then flying, then both, as on the CPU:
 
   benchmarks/gpu_runs.sh walk_gpu 8 --priors-dir /data/priors
+  benchmarks/gpu_runs.sh fly_gpu 8 --priors-dir /data/priors --jets-at-rest \\
+      --resume runs/gpu/walk_gpu/checkpoint_slim.msgpack
+  benchmarks/gpu_runs.sh walk_fly_gpu 8 --priors-dir /data/priors \\
+      --resume runs/gpu/fly_gpu/checkpoint_slim.msgpack
   benchmarks/gpu_runs.sh walk_fly_gpu 3 --priors-dir /tmp/p --num-envs 8 \\
       --minibatch-size 64 --iterations 2 --eval-rollouts 2 --eval-every 0"""
 
@@ -100,6 +106,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         type=Path,
         metavar="CHECKPOINT",
         help="continue from this checkpoint.msgpack (copied into --out)",
+    )
+    parser.add_argument(
+        "--jets-at-rest",
+        action="store_true",
+        help="with --resume of another run's checkpoint: the policy's jet outputs start at "
+        "rest (for a checkpoint trained with another jet action: fly_gpu from walk_gpu)",
     )
     parser.add_argument(
         "--priors-dir",
@@ -179,12 +191,15 @@ def with_overrides(config: Any, args: argparse.Namespace) -> Any:
     return replace(config, ppo=replace(config.ppo, **ppo), run=replace(config.run, **run))
 
 
-def prepare_out(out: Path, resume: Path | None) -> None:
-    """Refuse to train over a run; put the checkpoint to resume from in place."""
+def prepare_out(out: Path, resume: Path | None, jets_at_rest: bool = False) -> None:
+    """Refuse to train over a run, or to set the jets at rest in a run's own checkpoint; put
+    the checkpoint to resume from in place."""
     from motionkit.train.checkpoint import place_checkpoint
 
     checkpoint = out / CHECKPOINT
     if resume is None:
+        if jets_at_rest:
+            raise TrainError("--jets-at-rest needs --resume CHECKPOINT (another run's)")
         if checkpoint.exists():
             raise TrainError(
                 f"{out} holds a run already ({checkpoint}): continue it with --resume "
@@ -193,6 +208,11 @@ def prepare_out(out: Path, resume: Path | None) -> None:
         return
     if place_checkpoint(out, resume, "--resume"):
         print(f"gpu_run: copied {resume} to {checkpoint}", flush=True)
+    elif jets_at_rest:
+        raise TrainError(
+            f"--jets-at-rest: {resume} is the run's own checkpoint; its jets were set at rest "
+            "when the run began (leave --jets-at-rest out)"
+        )
 
 
 def read_columns(path: Path) -> dict[str, list[Any]]:
@@ -359,7 +379,7 @@ def run(args: argparse.Namespace, clock: float, started: str) -> int:
     check_prior_paths(config)
     config = with_overrides(config, args)
     out = args.out if args.out is not None else Path("runs/gpu") / recipe.stem
-    prepare_out(out, args.resume)
+    prepare_out(out, args.resume, args.jets_at_rest)
 
     from motionkit.train.runtime import enable_compile_cache, require_train_extra
 
@@ -394,12 +414,20 @@ def run(args: argparse.Namespace, clock: float, started: str) -> int:
         "started": started,
         "device": device,
         "resumed_from": str(args.resume) if args.resume else None,
+        "jets_at_rest": args.jets_at_rest,
         "config": config.to_dict(),
     }
     summary: dict[str, Any] = {}
     robot = ironcub()
     try:
-        summary = train(config, out, robot, resume=args.resume is not None, progress=print_flush)
+        summary = train(
+            config,
+            out,
+            robot,
+            resume=args.resume is not None,
+            jets_at_rest=args.jets_at_rest,
+            progress=print_flush,
+        )
         slim = write_slim(out / CHECKPOINT, out / SLIM_NAME)
         report["checkpoint_bytes"] = {"full": (out / CHECKPOINT).stat().st_size, "slim": slim}
         report["final_evaluation"] = summary.get("eval") or {}

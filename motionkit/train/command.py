@@ -22,8 +22,9 @@ The config is a TOML recipe with tables [env], [reward], [ppo], [amp], [run] and
   paths = ["datasets/walk"]        # MCAP clips or folders (relative to the working directory)
   weight = 1.0
 Recipes (`motionkit recipes train`): walk_cpu, fly_cpu, walk_fly_cpu (hours on a CPU, resumed
-across sessions), walk_gpu, fly_gpu, walk_fly_gpu (minutes on one GPU), paper_gpu (the paper's
-settings) and tiny_cpu (seconds per iteration). A key left out keeps its default.
+across sessions), walk_gpu, fly_gpu, walk_fly_gpu (the same on one GPU, in 7-minute calls),
+paper_gpu (the paper's settings) and tiny_cpu (seconds per iteration). A key left out keeps its
+default.
 Physics ([env] impl): "auto" (the default) is MuJoCo MJX on a GPU and MuJoCo C (mujoco.batch,
 every core) on a CPU; "jax", "warp" and "mujoco" choose one. The run prints which it used.
 
