@@ -38,7 +38,7 @@ def test_recipe_is_walk_gpu_at_the_std_and_scale(bench: Any, tmp_path: Path) -> 
     assert config.ppo.init_std == 0.03 and config.ppo.num_envs == 32
     assert config.ppo.minibatch_size == 32 * 16 // 2  # two minibatches per epoch
     assert (config.run.iterations, config.run.seed, config.run.eval_every) == (9, 4, 0)
-    assert config.run.eval_rollouts == 38  # ceil(600 steps / 16): one whole episode
+    assert config.run.eval_rollouts == 19  # ceil(300 steps (10 s at 30 Hz) / 16): one episode
     assert config.priors["walk"].paths == (str(tmp_path / "walk"),)
     assert config.env == walk_gpu.env and config.reward == walk_gpu.reward
     assert config.ppo.actor_hidden == walk_gpu.ppo.actor_hidden == (1024, 512)

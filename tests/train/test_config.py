@@ -1,6 +1,7 @@
 """Train configs from TOML: the recipes load, defaults are the paper's, bad input is refused
 with the file, table and key named."""
 
+from dataclasses import asdict
 from pathlib import Path
 
 import pytest
@@ -34,18 +35,26 @@ def test_defaults_are_the_amp_reference_settings() -> None:
     assert (env.action_mapping, env.action_scale, env.reset_from_prior) == ("range", 0.7, 0.85)
 
 
-def test_gpu_recipes() -> None:
-    walk, fly, both = (
-        TrainConfig.from_toml(RECIPES / f"{name}_gpu.toml") for name in ("walk", "fly", "walk_fly")
-    )
-    assert list(walk.priors) == ["walk"] and walk.env.air_probability == 0.0
-    assert list(fly.priors) == ["flight"] and fly.env.air_probability == 1.0
-    assert fly.env.reset_from_prior == 0.95
-    assert sorted(both.priors) == ["flight", "walk"] and both.env.air_curriculum == 300
-    for config in (walk, fly, both):
-        assert config.ppo.num_envs == 4096 and config.run.max_minutes == 7.0
-        # evaluations cover whole episodes
-        assert config.run.eval_rollouts * config.ppo.rollout_steps >= config.env.max_steps
+def test_gpu_recipes_are_the_cpu_recipes_at_a_gpus_scale() -> None:
+    """Only the scale differs (environments, minibatches, networks, the discriminator's batch and
+    buffer): control, rewards, jets and PPO's learning settings are the CPU runs'."""
+    scale_ppo = {"num_envs", "minibatch_size", "actor_hidden", "critic_hidden"}
+    scale_amp = {"hidden", "batch_size", "buffer_size"}
+    for name in ("walk", "fly", "walk_fly"):
+        gpu = TrainConfig.from_toml(RECIPES / f"{name}_gpu.toml")
+        cpu = TrainConfig.from_toml(RECIPES / f"{name}_cpu.toml")
+        assert gpu.env == cpu.env and gpu.reward == cpu.reward, name
+        assert gpu.priors.keys() == cpu.priors.keys(), name
+        for ours, theirs, scale in ((gpu.ppo, cpu.ppo, scale_ppo), (gpu.amp, cpu.amp, scale_amp)):
+            differ = {k for k, v in asdict(ours).items() if asdict(theirs)[k] != v}
+            assert differ <= scale, (name, differ - scale)
+        assert gpu.ppo.num_envs == 4096 and gpu.ppo.actor_hidden == (1024, 512), name
+        assert gpu.run.max_minutes == 7.0, name
+        # evaluations cover whole episodes (10 s at 30 Hz)
+        assert gpu.run.eval_rollouts * gpu.ppo.rollout_steps >= gpu.env.max_steps == 300, name
+    walk, fly = (TrainConfig.from_toml(RECIPES / f"{n}_gpu.toml") for n in ("walk", "fly"))
+    # fly_gpu goes on from walk_gpu with --jets-at-rest: the rate action, then the set point
+    assert (walk.env.jet_action, fly.env.jet_action) == ("rate", "thrust")
 
 
 def test_round_trip_through_toml(tmp_path: Path) -> None:
