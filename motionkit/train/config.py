@@ -7,6 +7,7 @@ The defaults are the paper's GPU settings; `train/tiny_cpu.toml` shrinks them fo
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -127,10 +128,12 @@ class RewardConfig:
     # up to swing_height times the horizontal sole speed up to v_desired (both as shares)
     w_swing: float = 0.0
     swing_height: float = 0.08  # m: the walking prior's soles rise 8-9 cm in a step
+    # Not in the paper (0: off): -mean_j T_j / T_max on the way to a ground waypoint
+    w_ground_thrust: float = 0.0
 
     def __post_init__(self) -> None:
         check(self, TrainError, ">= 0", "w_target", "w_velocity", "w_facing", "w_thrust")
-        check(self, TrainError, ">= 0", "w_task", "w_style", "w_swing")
+        check(self, TrainError, ">= 0", "w_task", "w_style", "w_swing", "w_ground_thrust")
         check(self, TrainError, "> 0", "c1", "c2", "v_desired", "swing_height")
 
 
@@ -170,6 +173,9 @@ class PpoConfig:
     mean_init_scale: float = 0.001
     actor_hidden: tuple[int, ...] = (512, 256, 128)
     critic_hidden: tuple[int, ...] = (512, 256, 128)
+    # weight of the mirror loss: mean over actions of ((mu(mirror(s)) - mirror(mu(s))) / std)^2,
+    # which pulls the policy toward acting as the mirror image of itself (0: off)
+    mirror_coef: float = 0.0
 
     def action_std(self, joints: int, jets: int) -> tuple[float, ...]:
         """The std of each action: the joints' (init_std), then the jets' (jet_std or init_std)."""
@@ -182,6 +188,7 @@ class PpoConfig:
         check(self, TrainError, "> 0", "max_grad_norm")
         check(self, TrainError, ">= 0", "mean_init_scale", "jet_std")
         check(self, TrainError, ">= 0", "value_clip", "entropy_coef", "value_coef", "bounds_coef")
+        check(self, TrainError, ">= 0", "mirror_coef")
         check(self, TrainError, "in (0, 1]", "gamma", "lam")
         check(self, TrainError, LR_SCHEDULES, "lr_schedule")
         if (self.num_envs * self.rollout_steps) % self.minibatch_size:
@@ -210,6 +217,10 @@ class AmpConfig:
     buffer_size: int = 1_000_000  # policy transitions in the replay buffer
     replay_keep: float = 0.01  # once it is full, the chance that a new transition goes in
     style_scale: float = 2.0  # r_S = style_scale * -log(max(1 - D, 1e-4))
+    # the robot's left-right mirror (`motionkit.robot.mirror`): each prior clip is also used
+    # mirrored (its pairs and reset frames), and the discriminator sees each policy pair
+    # mirrored as well
+    mirror: bool = False
 
     def __post_init__(self) -> None:
         check(self, TrainError, ">= 1", "hidden", "batch_size", "buffer_size")
@@ -263,6 +274,58 @@ class PriorConfig:
         check(self, TrainError, "> 0", "weight")
 
 
+GOAL_OPERATORS = (">=", "<=")
+# keys a curriculum stage may not change: the shapes of what is learned
+FIXED_KEYS = {"ppo": ("actor_hidden", "critic_hidden"), "amp": ("hidden",)}
+
+
+@dataclass(frozen=True)
+class StageConfig:
+    """One stage of a curriculum ([curriculum.NAME], in the recipe's order): the keys of
+    [env], [reward], [ppo] and [amp] it changes from the recipe's, the priors' weights, and
+    when it ends: at the first evaluation that meets every goal (`hold` evaluations in a row)
+    once `min_iterations` have run in the stage, or after `max_iterations` (0: no limit; the
+    last stage runs to [run] iterations)."""
+
+    env: dict[str, Any] = field(default_factory=dict)
+    reward: dict[str, Any] = field(default_factory=dict)
+    ppo: dict[str, Any] = field(default_factory=dict)
+    amp: dict[str, Any] = field(default_factory=dict)
+    priors: dict[str, float] = field(default_factory=dict)  # prior name -> weight
+    # evaluation figure (an eval.csv column) -> ">= x" or "<= x"
+    goals: dict[str, str] = field(default_factory=dict)
+    hold: int = 1  # evaluations in a row that must meet the goals
+    min_iterations: int = 0
+    max_iterations: int = 0
+
+    def __post_init__(self) -> None:
+        check(self, TrainError, ">= 1", "hold")
+        check(self, TrainError, ">= 0", "min_iterations", "max_iterations")
+        for name, goal in self.goals.items():
+            parse_goal(name, goal)
+        for table, keys in FIXED_KEYS.items():
+            fixed = sorted(set(getattr(self, table)) & set(keys))
+            if fixed:
+                raise TrainError(
+                    f"[{table}] {fixed} cannot change between stages (the networks' shapes)"
+                )
+        for name, weight in self.priors.items():
+            if not (isinstance(weight, float) and math.isfinite(weight) and weight > 0):
+                raise refusal(TrainError, f"priors.{name}", "a weight > 0", weight)
+
+
+def parse_goal(name: str, goal: str) -> tuple[str, float]:
+    """A goal ">= x" or "<= x" as (operator, x); TrainError naming the figure otherwise."""
+    operator, _, number = goal.strip().partition(" ")
+    try:
+        threshold = float(number)
+    except ValueError:
+        threshold = math.nan
+    if operator not in GOAL_OPERATORS or not math.isfinite(threshold):
+        raise refusal(TrainError, f"goals.{name}", "'>= x' or '<= x', x a finite number", goal)
+    return operator, threshold
+
+
 @dataclass(frozen=True)
 class TrainConfig:
     env: EnvConfig = EnvConfig()
@@ -271,6 +334,8 @@ class TrainConfig:
     amp: AmpConfig = AmpConfig()
     run: RunConfig = RunConfig()
     priors: dict[str, PriorConfig] = field(default_factory=dict)  # [priors.NAME] tables
+    # [curriculum.NAME] tables, in order (none: one stage, the recipe itself)
+    curriculum: dict[str, StageConfig] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         devices, envs = self.run.devices, self.ppo.num_envs
@@ -278,6 +343,31 @@ class TrainConfig:
             raise TrainError(
                 f"[ppo] num_envs ({envs}) must be a multiple of [run] devices ({devices})"
             )
+        for name, stage in self.curriculum.items():
+            unknown = sorted(set(stage.priors) - set(self.priors))
+            if unknown:
+                raise TrainError(
+                    f"[curriculum.{name}.priors] names {unknown}, the config has [priors.*] "
+                    f"tables for {sorted(self.priors) or 'none'}"
+                )
+            try:
+                self.stage(name)
+            except TrainError as exc:
+                raise TrainError(f"[curriculum.{name}]: {exc}") from exc
+
+    def stage(self, name: str) -> TrainConfig:
+        """The config a curriculum stage trains with: the recipe with the stage's keys and
+        prior weights, without a curriculum."""
+        stage = self.curriculum[name]
+        tables = {}
+        for table in ("env", "reward", "ppo", "amp"):
+            base = getattr(self, table)
+            values = asdict(base) | getattr(stage, table)
+            tables[table] = load(type(base), values, f"stage {name!r}", TrainError)
+        priors = {
+            n: replace(p, weight=stage.priors.get(n, p.weight)) for n, p in self.priors.items()
+        }
+        return replace(self, **tables, priors=priors, curriculum={})
 
     @classmethod
     def from_toml(cls, path: Path) -> TrainConfig:
@@ -295,7 +385,11 @@ class TrainConfig:
                 f"--priors names {missing}, the config has [priors.*] tables for "
                 f"{sorted(self.priors) or 'none'}"
             )
-        return replace(self, priors={n: self.priors[n] for n in names})
+        stages = {
+            name: replace(s, priors={n: w for n, w in s.priors.items() if n in names})
+            for name, s in self.curriculum.items()
+        }
+        return replace(self, priors={n: self.priors[n] for n in names}, curriculum=stages)
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)

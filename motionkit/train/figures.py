@@ -3,7 +3,9 @@
 Per step (means over every step and environment): the task reward and its terms, the
 horizontal speed toward the waypoint, the share of steps on one foot, touch-downs plus
 lift-offs per foot per second, the airborne share, the thrust per T_max (also over the airborne
-steps alone), the airborne share on the way to ground waypoints and to air ones. Per episode:
+steps alone), the airborne share on the way to ground waypoints and to air ones; on the way to
+ground waypoints, the mean thrust of the jet that pushes most (per T_max) and the least and
+most any foot is down (the two feet's stance shares). Per episode:
 over the
 episodes that ended in the rollout (their length, waypoints, falls); when none ended, over the
 episodes still running, as far as they got (a partial figure, so that a rollout shorter than
@@ -39,6 +41,10 @@ def rollout_figures(
         return jnp.where(whole > 0, part / jnp.maximum(whole, 1), jnp.nan)
 
     terms = {f"reward_{name}": value.mean() for name, value in info.terms.items()}
+    ground = ~air
+    # on the way to ground waypoints: each jet's mean thrust, each foot's share of steps down
+    jets_to_ground = (thrust / t_max * ground[..., None]).sum((0, 1)) / jnp.maximum(ground.sum(), 1)
+    stance = (info.feet_down * ground[..., None]).sum((0, 1)) / jnp.maximum(ground.sum(), 1)
     return terms | {
         "task_reward": info.task_reward.mean(),
         "approach_speed": info.approach_speed.mean(),
@@ -49,6 +55,9 @@ def rollout_figures(
         "airborne_share_to_air": share((info.airborne & air).sum(), air.sum()),
         "thrust_usage": usage.mean(),
         "thrust_usage_airborne": share((usage * info.airborne).sum(), info.airborne.sum()),
+        "thrust_usage_to_ground_max_jet": jnp.where(ground.any(), jets_to_ground.max(), jnp.nan),
+        "stance_share_min_foot": jnp.where(ground.any(), stance.min(), jnp.nan),
+        "stance_share_max_foot": jnp.where(ground.any(), stance.max(), jnp.nan),
         "episodes": episodes.astype(jnp.float32),
         "episode_seconds": per_episode(info.episode_steps) / control_hz,
         "waypoints_per_episode": per_episode(info.episode_reached),

@@ -46,9 +46,11 @@ from motionkit.train.ppo import (
     gae,
     gaussian_kl,
     log_prob,
+    mirror_loss,
     ppo_loss,
 )
 from motionkit.train.style import AdversarialStyle
+from motionkit.train.symmetry import feature_mirror
 
 
 @struct.dataclass
@@ -147,6 +149,7 @@ class Trainer:
             optax.clip_by_global_norm(ppo.max_grad_norm), optax.scale_by_adam()
         )
         self.use_style = prior is not None and config.reward.w_style > 0
+        self.mirror = feature_mirror(env) if ppo.mirror_coef > 0 or config.amp.mirror else None
         if env.config.impl == "mujoco":
             self._init_mujoco()
         else:
@@ -383,6 +386,13 @@ class Trainer:
                     ppo.bounds_coef,
                 )
                 kl = gaussian_kl(mb["means"], mb["log_stds"], mean, log_std).mean()
+                if ppo.mirror_coef > 0:
+                    obs = learner.obs_norm(self.mirror.obs(mb["obs"]))
+                    of_mirrored, _, _ = self.net.apply(params, obs)
+                    parts["mirror_loss"] = mirror_loss(
+                        of_mirrored, self.mirror.actions(mean), log_std
+                    )
+                    loss = loss + ppo.mirror_coef * parts["mirror_loss"]
                 return loss, {**parts, "kl": kl}
 
             grads, parts = jax.grad(loss_fn, has_aux=True)(policy)
@@ -442,6 +452,8 @@ class Trainer:
         disc, disc_opt = learner.disc, learner.disc_opt
         if self.use_style:
             pairs = flat(batch.chi), flat(batch.info.chi_next)
+            if config.amp.mirror:
+                pairs = tuple(jnp.concatenate([x, self.mirror.chi(x)]) for x in pairs)
             disc, disc_opt, buffer, disc_parts = self.style.train(
                 disc, disc_opt, amp_norm, pairs, buffer, prior, k_disc
             )

@@ -161,6 +161,14 @@ def ppo_loss(
     return loss, parts | {"bounds_loss": bounds}
 
 
+def mirror_loss(
+    mean_of_mirrored: jax.Array, mirrored_mean: jax.Array, log_std: jax.Array
+) -> jax.Array:
+    """The mean over rows and actions of ((mu(mirror(s)) - mirror(mu(s))) / std)^2, given
+    mu(mirror(s)) and mirror(mu(s)): zero for a policy that acts as its own mirror image."""
+    return jnp.mean(((mean_of_mirrored - mirrored_mean) / jnp.exp(log_std)) ** 2)
+
+
 def adapt_learning_rate(
     lr: jax.Array, kl: jax.Array, target: float, low: float = 1e-5, high: float = 1e-2
 ) -> jax.Array:

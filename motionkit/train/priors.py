@@ -8,24 +8,26 @@ import numpy as np
 
 from motionkit.core.errors import DatasetError, TrainError
 from motionkit.dataset import MotionDataset
-from motionkit.dataset.amp import resample
+from motionkit.dataset.amp import amp_pairs, resample
 from motionkit.dataset.collection import find_clips
 from motionkit.dataset.trajectory import Trajectory
 from motionkit.dataset.validate import read_valid
 from motionkit.robot import Robot
 from motionkit.robot.geometry import quat_rotate_inverse, to_rotation
 from motionkit.robot.kinematics import frame_poses
+from motionkit.robot.mirror import Mirror, mirror_trajectory
 from motionkit.train.amp import PriorData, PriorStates
 from motionkit.train.config import PriorConfig
 from motionkit.train.env.task import AIRBORNE_CLEARANCE
 
 
 def load_priors(
-    priors: dict[str, PriorConfig], robot: Robot, rate: float
+    priors: dict[str, PriorConfig], robot: Robot, rate: float, mirror: Mirror | None = None
 ) -> tuple[PriorData | None, dict[str, dict[str, float]]]:
     """The combined dataset transitions (None without priors) and a summary per prior. Every
     clip is checked first as `dataset validate` checks it (another model of the robot with the
-    same names passes): a TrainError names the prior, the file and what is wrong."""
+    same names passes): a TrainError names the prior, the file and what is wrong. With a
+    `mirror`, each clip is used twice, as it is and mirrored (its weight shared between them)."""
     if not priors:
         return None, {}
     currents, followings, probabilities, states, summary = [], [], [], [], {}
@@ -35,8 +37,13 @@ def load_priors(
             for path in find_clips(list(prior.paths)):  # as `dataset validate` checks them
                 read_valid(path, robot, other_model=True)
             dataset = MotionDataset(list(prior.paths))
-            pairs = dataset.amp_pairs(robot, rate)
-            clips = [resample(t, rate) for _, t in dataset.trajectories()]
+            pairs = dataset.amp_pairs(robot, rate)  # (checks the clips' robot)
+            trajectories = [t for _, t in dataset.trajectories()]
+            if mirror is not None:
+                weights = [clip.weight for clip in dataset.clips] * 2
+                trajectories += [mirror_trajectory(t, mirror) for t in trajectories]
+                pairs = amp_pairs(trajectories, robot, rate, weights)
+            clips = [resample(t, rate) for t in trajectories]
             heights = [sole_heights(clip, robot) for clip in clips]
             frames = [prior_states(c, robot, h) for c, h in zip(clips, heights, strict=True)]
             gait = gait_figures(heights, rate)

@@ -7,6 +7,7 @@ OUT/evaluated/iter_N.msgpack  with [run] keep_evaluated: a slim checkpoint of ev
 OUT/rollouts/iter_N.mcap    the first evaluation episode of environment 0, for the viewer
 OUT/summary.json            priors, last training and evaluation figures, timings
 OUT/curves.png              the training curves (redrawn at every evaluation)
+OUT/curriculum.json         with a [curriculum]: the stage the checkpoint is in, and its switches
 """
 
 from __future__ import annotations
@@ -19,10 +20,12 @@ from typing import Any
 
 import jax
 
-from motionkit.core.errors import TrainError
+from motionkit.core.errors import RobotModelError, TrainError
 from motionkit.files.outputs import check_out, claim_out, write_json_atomic, write_text_atomic
 from motionkit.robot import Robot
+from motionkit.robot.mirror import robot_mirror
 from motionkit.runtime.progress import Progress, silent
+from motionkit.train import curriculum
 from motionkit.train.amp import PriorData
 from motionkit.train.checkpoint import NAME, load_checkpoint, save_checkpoint, save_slim
 from motionkit.train.config import RunConfig, TrainConfig
@@ -30,7 +33,7 @@ from motionkit.train.curves import draw_curves
 from motionkit.train.devices import resolve_devices, resolve_impl
 from motionkit.train.env import Env
 from motionkit.train.evaluate import evaluate, save_rollout
-from motionkit.train.learner import Learner, Trainer
+from motionkit.train.learner import Carry, Learner, Trainer
 from motionkit.train.metrics_log import MetricsLog
 from motionkit.train.priors import load_priors
 
@@ -42,7 +45,7 @@ PHYSICS = {
 # what a run writes in its folder (see the module doc)
 OUTPUTS = (
     "config.toml", "train.csv", "eval.csv", "tensorboard", NAME, "rollouts", "summary.json",
-    "curves.png", "evaluated",
+    "curves.png", "evaluated", curriculum.FILE,
 )  # fmt: skip
 
 
@@ -99,7 +102,9 @@ def train(
 
     A run stopped by `max_minutes` (counted from the call, setup and compilation included) is
     evaluated before it returns, like one that completes its iterations. The folder's files
-    are listed in the module doc.
+    are listed in the module doc. A config with a [curriculum] trains each stage's config in
+    turn (`motionkit.train.curriculum`), switching at evaluations; a resumed run goes on in
+    the stage its checkpoint was saved in.
 
     Args:
         config: the training config; its [priors] tables name the motion priors.
@@ -121,99 +126,188 @@ def train(
             `resume`, an `out` that holds files motionkit did not write, or a config, jet
             model or prior clips the robot cannot train with.
     """
-    start = time.perf_counter()
-    out = Path(out)
-    checkpoint = out / NAME
-    if resume and not checkpoint.exists():
-        raise TrainError(f"{out}: nothing to resume (no {NAME})")
-    if not resume and checkpoint.exists():
-        raise TrainError(f"{out} holds a run already: pass --resume or another --out")
-    check_out(out, OUTPUTS, TrainError)
-    config, trainer, prior_summary = build_trainer(config, robot)
-    env, run = trainer.env, config.run
-    learner, carry = trainer.init(run.seed)
-    if resume:  # checked before anything is written
-        restored, slim = load_checkpoint(checkpoint, learner)
-        if jets_at_rest:
-            restored = trainer.jets_at_rest(restored)
-        learner = trainer.replicate(restored)
-        key = jax.random.fold_in(jax.random.key(run.seed), int(learner.iteration))
-        carry = trainer.new_carry(*jax.random.split(key))
-    claim_out(out, OUTPUTS, TrainError)
-    write_text_atomic(out / "config.toml", config.to_toml())
-    if resume:
-        moments = " (a slim checkpoint: the optimisers' moments start afresh)" if slim else ""
-        progress(f"resumed {out} at iteration {int(learner.iteration)}{moments}")
-        if jets_at_rest:
-            progress(f"the policy's jet outputs start at rest ({config.env.jet_action} action)")
-    log = MetricsLog(out, run.tensorboard)
-    if log.note:
-        progress(log.note)
-    platform = trainer.mesh.devices.flat[0].platform
-    progress(
-        f"{config.ppo.num_envs} envs x {config.ppo.rollout_steps} steps per iteration on "
-        f"{trainer.devices} {platform} device(s), physics {PHYSICS[config.env.impl]}, "
-        f"scenario {config.env.scenario}, jets {config.env.jet}, priors "
-        f"{', '.join(config.priors) or 'none'}; obs {env.obs_size}, actions {env.action_size}"
-    )
-    for name, figures in prior_summary.items():
-        progress(
-            f"prior {name}: {figures['clips']} clip(s), {figures['seconds']:.1f} s; on one foot "
-            f"{figures['single_support_share']:.2f} of the time, "
-            f"{figures['contact_switches_per_second']:.2f} contact switches per foot per second, "
-            f"soles up to {100 * figures['sole_clearance_max_m']:.1f} cm (the evaluation's rules)"
+    session = _Session(config, Path(out), robot, progress)
+    session.open(resume, jets_at_rest)
+    session.loop(stop)
+    return session.close()
+
+
+class _Session:
+    """One call of `train`: the trainer of the current stage, the learner and the logs."""
+
+    def __init__(self, config: TrainConfig, out: Path, robot: Robot, progress: Progress) -> None:
+        self.start = time.perf_counter()
+        self.recipe, self.out, self.robot, self.progress = config, out, robot, progress
+        self.last: dict[str, float] = {}
+        self.evaluation: dict[str, float] = {}
+        self.evaluated_at = -1
+
+    def open(self, resume: bool, jets_at_rest: bool) -> None:
+        """Check the folder, build the trainer of the run's stage and its learner (restored
+        when resuming); nothing is written before the checks pass."""
+        out, checkpoint = self.out, self.out / NAME
+        if resume and not checkpoint.exists():
+            raise TrainError(f"{out}: nothing to resume (no {NAME})")
+        if not resume and checkpoint.exists():
+            raise TrainError(f"{out} holds a run already: pass --resume or another --out")
+        check_out(out, OUTPUTS, TrainError)
+        saved = curriculum.read_state(out, self.recipe) if resume else None
+        self.stage = saved or curriculum.CurriculumState()
+        config, self.trainer, self.priors = build_trainer(self.stage_config(), self.robot)
+        self.learner, self.carry = self.trainer.init(config.run.seed)
+        slim = False
+        if resume:  # checked before anything is written
+            restored, slim = load_checkpoint(checkpoint, self.learner)
+            if jets_at_rest:
+                restored = self.trainer.jets_at_rest(restored)
+            self.learner = self.trainer.replicate(restored)
+            self.carry = self._new_carry()
+            if saved is None:
+                self.stage = curriculum.CurriculumState(since=self.iteration)
+        claim_out(out, OUTPUTS, TrainError)
+        write_text_atomic(out / "config.toml", self.recipe.to_toml())
+        if resume:
+            moments = " (a slim checkpoint: the optimisers' moments start afresh)" if slim else ""
+            self.progress(f"resumed {out} at iteration {self.iteration}{moments}")
+            if jets_at_rest:
+                action = config.env.jet_action
+                self.progress(f"the policy's jet outputs start at rest ({action} action)")
+        self.log = MetricsLog(out, config.run.tensorboard)
+        if self.log.note:
+            self.progress(self.log.note)
+        self._report_setup()
+
+    @property
+    def iteration(self) -> int:
+        return int(self.learner.iteration)
+
+    def stage_config(self) -> TrainConfig:
+        return curriculum.stage_config(self.recipe, self.stage)
+
+    def _new_carry(self) -> Carry:
+        """Fresh environments, and the replay buffer kept where it fits the trainer."""
+        seed = self.trainer.config.run.seed
+        key = jax.random.fold_in(jax.random.key(seed), self.iteration)
+        carry = self.trainer.new_carry(*jax.random.split(key))
+        old = getattr(self, "carry", None)
+        if old is not None and old.buffer.current.shape == carry.buffer.current.shape:
+            carry = carry.replace(buffer=old.buffer)
+        return carry
+
+    def _report_setup(self) -> None:
+        config, env = self.trainer.config, self.trainer.env
+        platform = self.trainer.mesh.devices.flat[0].platform
+        self.progress(
+            f"{config.ppo.num_envs} envs x {config.ppo.rollout_steps} steps per iteration on "
+            f"{self.trainer.devices} {platform} device(s), physics {PHYSICS[config.env.impl]}, "
+            f"scenario {config.env.scenario}, jets {config.env.jet}, priors "
+            f"{', '.join(config.priors) or 'none'}; obs {env.obs_size}, actions {env.action_size}"
         )
-    summary: dict[str, Any] = {"priors": prior_summary}
-    last: dict[str, float] = {}
-    evaluation: dict[str, float] = {}
-    evaluated_at = -1
-    steps_per_iteration = config.ppo.num_envs * config.ppo.rollout_steps
-    iterations_from = (int(learner.iteration), time.perf_counter())
-    while int(learner.iteration) < run.iterations:
-        if run.max_minutes and time.perf_counter() - start > 60 * run.max_minutes:
-            progress(f"stopped after {run.max_minutes} minutes")
-            break
+        for name, figures in self.priors.items():
+            self.progress(
+                f"prior {name}: {figures['clips']} clip(s), {figures['seconds']:.1f} s; on one "
+                f"foot {figures['single_support_share']:.2f} of the time, "
+                f"{figures['contact_switches_per_second']:.2f} contact switches per foot per "
+                f"second, soles up to {100 * figures['sole_clearance_max_m']:.1f} cm (the "
+                "evaluation's rules)"
+            )
+        if self.recipe.curriculum:
+            self.progress(self._stage_line())
+
+    def _stage_line(self) -> str:
+        names = curriculum.stage_names(self.recipe)
+        name = names[self.stage.stage]
+        stage = self.recipe.curriculum[name]
+        changes = {t: getattr(stage, t) for t in ("env", "reward", "ppo", "amp", "priors")}
+        changed = "; ".join(f"[{t}] {v}" for t, v in changes.items() if v) or "the recipe as it is"
+        return (
+            f"curriculum stage {self.stage.stage + 1}/{len(names)} '{name}' since iteration "
+            f"{self.stage.since}: {changed}"
+        )
+
+    def loop(self, stop: Callable[[dict[str, float]], bool] | None) -> None:
+        run = self.recipe.run
+        iterations_from = (self.iteration, time.perf_counter())
+        while self.iteration < run.iterations:
+            if run.max_minutes and time.perf_counter() - self.start > 60 * run.max_minutes:
+                self.progress(f"stopped after {run.max_minutes} minutes")
+                break
+            self._iterate()
+            iteration = self.iteration
+            if iteration % run.log_every == 0 or iteration == 1:
+                left = _time_left(run, iteration, self.start, iterations_from)
+                self.progress(_line(iteration, self.last) + left)
+            final = iteration >= run.iterations
+            evaluated = (run.eval_every and iteration % run.eval_every == 0) or final
+            if evaluated:
+                self._evaluate()
+            switched = self._advance_stage(self.evaluation if evaluated else None)
+            if iteration % run.checkpoint_every == 0 or final or switched:
+                self._save()
+            if switched:
+                iterations_from = (self.iteration, time.perf_counter())
+            if evaluated and stop is not None and stop(self.evaluation):
+                self.progress(f"stop criterion met at iteration {iteration}")
+                break
+
+    def _iterate(self) -> None:
         tick = time.perf_counter()
-        phases = _phases(trainer)  # (what an evaluation spent is dropped)
-        learner, carry, metrics = trainer.iteration(learner, carry)
-        iteration = int(learner.iteration)
-        last = {k: float(v) for k, v in metrics.items()}
+        _phases(self.trainer)  # (what an evaluation spent is dropped)
+        self.learner, self.carry, metrics = self.trainer.iteration(self.learner, self.carry)
         seconds = time.perf_counter() - tick
-        last |= {
-            "env_steps": float(learner.env_steps),
-            "env_steps_per_second": steps_per_iteration / seconds,
-            "wall_seconds": time.perf_counter() - start,
+        config = self.trainer.config
+        self.last = {k: float(v) for k, v in metrics.items()} | {
+            "env_steps": float(self.learner.env_steps),
+            "env_steps_per_second": config.ppo.num_envs * config.ppo.rollout_steps / seconds,
+            "wall_seconds": time.perf_counter() - self.start,
+            "stage": float(self.stage.stage),
         }
-        phases = _phases(trainer)
+        phases = _phases(self.trainer)
         if phases:
             phases["update"] = seconds - sum(phases.values())
-            last |= {f"seconds_{name}": value for name, value in phases.items()}
-        log.write("train", iteration, last)
-        if iteration % run.log_every == 0 or iteration == 1:
-            progress(_line(iteration, last) + _time_left(run, iteration, start, iterations_from))
-        final = iteration >= run.iterations
-        evaluated = (run.eval_every and iteration % run.eval_every == 0) or final
-        if evaluated:
-            evaluation = _evaluate(trainer, learner, robot, out, log, progress)
-            evaluated_at = iteration
-        if iteration % run.checkpoint_every == 0 or final:
-            save_checkpoint(checkpoint, learner)
-        if evaluated and stop is not None and stop(evaluation):
-            progress(f"stop criterion met at iteration {iteration}")
-            break
-    save_checkpoint(checkpoint, learner)
-    if evaluated_at != int(learner.iteration) and int(learner.iteration) > 0:
-        evaluation = _evaluate(trainer, learner, robot, out, log, progress)
-    log.close()
-    summary |= {
-        "iterations": int(learner.iteration),
-        "env_steps": float(learner.env_steps),
-        "seconds": round(time.perf_counter() - start, 2),
-        "train": last,
-        "eval": evaluation,
-    }
-    write_json_atomic(out / "summary.json", summary)
-    return summary
+            self.last |= {f"seconds_{name}": value for name, value in phases.items()}
+        self.log.write("train", self.iteration, self.last)
+
+    def _evaluate(self) -> None:
+        self.evaluation = _evaluate(
+            self.trainer, self.learner, self.robot, self.out, self.log, self.progress
+        )
+        self.evaluated_at = self.iteration
+
+    def _advance_stage(self, evaluation: dict[str, float] | None) -> bool:
+        """Go to the next curriculum stage where the current one ends; True if it did."""
+        self.stage, why = curriculum.advance(self.recipe, self.stage, self.iteration, evaluation)
+        if not why:
+            return False
+        self.progress(f"curriculum: stage ends at iteration {self.iteration} ({why})")
+        _, self.trainer, _ = build_trainer(self.stage_config(), self.robot)
+        self.carry = self._new_carry()
+        self.progress(self._stage_line())
+        return True
+
+    def _save(self) -> None:
+        save_checkpoint(self.out / NAME, self.learner)
+        if self.recipe.curriculum:
+            curriculum.write_state(self.out, self.recipe, self.stage)
+
+    def close(self) -> dict[str, Any]:
+        """The last checkpoint and evaluation, and the summary."""
+        self._save()
+        if self.evaluated_at != self.iteration and self.iteration > 0:
+            self._evaluate()
+        self.log.close()
+        summary = {
+            "priors": self.priors,
+            "iterations": self.iteration,
+            "env_steps": float(self.learner.env_steps),
+            "seconds": round(time.perf_counter() - self.start, 2),
+            "train": self.last,
+            "eval": self.evaluation,
+        }
+        if self.recipe.curriculum:
+            summary["curriculum"] = [dict(s) for s in self.stage.switches]
+        write_json_atomic(self.out / "summary.json", summary)
+        return summary
 
 
 def _evaluate(
@@ -323,7 +417,13 @@ def build_trainer(
     resetting from the priors' frames unless `with_priors` is False) and the priors' summary."""
     config = replace(config, env=replace(config.env, impl=resolve_impl(config.env.impl)))
     priors = config.priors if with_priors else {}
-    prior, summary = load_priors(priors, robot, config.env.control_hz)
+    mirror = None
+    if config.amp.mirror:
+        try:
+            mirror = robot_mirror(robot)
+        except RobotModelError as exc:
+            raise TrainError(f"[amp] mirror needs the robot's mirror: {exc}") from exc
+    prior, summary = load_priors(priors, robot, config.env.control_hz, mirror)
     return config, Trainer(config, make_env(config, robot, prior)), summary
 
 

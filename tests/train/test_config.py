@@ -45,6 +45,7 @@ def test_gpu_recipes_are_the_cpu_recipes_at_a_gpus_scale() -> None:
         cpu = TrainConfig.from_toml(RECIPES / f"{name}_cpu.toml")
         assert gpu.env == cpu.env and gpu.reward == cpu.reward, name
         assert gpu.priors.keys() == cpu.priors.keys(), name
+        assert gpu.curriculum == cpu.curriculum, name
         for ours, theirs, scale in ((gpu.ppo, cpu.ppo, scale_ppo), (gpu.amp, cpu.amp, scale_amp)):
             differ = {k for k, v in asdict(ours).items() if asdict(theirs)[k] != v}
             assert differ <= scale, (name, differ - scale)

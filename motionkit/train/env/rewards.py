@@ -7,14 +7,17 @@ Task terms of the paper, with x_d the waypoint and p the base position (world fr
     facing    cos of the angle between the robot's facing and the direction to the waypoint,
               both projected on the ground plane
     thrust    -sum_j (T_j / T_max)^2
-and one term of motionkit's own, off unless w_swing > 0:
+and two terms of motionkit's own, off unless their weight is above 0:
     swing     sum over feet of min(h_f / h_s, 1) min(|u_f| / v_d, 1) while another foot is
               down, with h_f the sole's clearance and u_f its horizontal velocity: a foot that
               moves forward high enough, as in a step (a shuffle's soles stay near the floor)
+    ground_thrust  -mean_j T_j / T_max on the way to a ground waypoint, 0 toward an air one:
+              linear, so that the little thrust that steadies a walk costs what it uses (the
+              thrust term's square makes 10 % of T_max cost 1 % of the full penalty)
 Style: r_S = scale * -log(max(1 - sigmoid(D(chi_t, chi_t+1)), 1e-4)) = scale * min(softplus(D),
 -log 1e-4) (the AMP reference's form, scale 2).
 Total: w_G r_G + w_S r_S, with r_G = w_c target + w_v velocity + w_f facing + w_T thrust
-(+ w_s swing).
+(+ w_s swing + w_gt ground_thrust).
 """
 
 from __future__ import annotations
@@ -93,6 +96,7 @@ def task_reward(terms: dict[str, jax.Array], config: RewardConfig) -> jax.Array:
         + config.w_facing * terms["facing"]
         + config.w_thrust * terms["thrust"]
         + config.w_swing * terms.get("swing", 0.0)
+        + config.w_ground_thrust * terms.get("ground_thrust", 0.0)
     )
 
 

@@ -284,6 +284,12 @@ class Env:
         swing = swing_reward(clearance, speed, down, config.swing_height, config.v_desired)
         return jnp.where(waypoints.in_air(self.terrain, target, self.config), 0.0, swing)
 
+    def _ground_thrust(self, thrust: jax.Array, target: jax.Array) -> jax.Array:
+        """-mean_j T_j / T_max on the way to a ground waypoint (0 toward an air one): the jets
+        idle while the robot walks."""
+        usage = jnp.mean(thrust / self.t_max)
+        return jnp.where(waypoints.in_air(self.terrain, target, self.config), 0.0, -usage)
+
     def joint_targets(self, joint_actions: jax.Array) -> jax.Array:
         return jnp.clip(
             self.action_offset + self.action_scale * joint_actions, self.ctrl_low, self.ctrl_high
@@ -429,6 +435,8 @@ class Env:
         feet_down = clearance <= AIRBORNE_CLEARANCE
         if self.reward_config.w_swing > 0:
             terms["swing"] = self._swing(state.data, data, clearance, state.target)
+        if self.reward_config.w_ground_thrust > 0:
+            terms["ground_thrust"] = self._ground_thrust(thrust, state.target)
         reward = task_reward(terms, self.reward_config)
         offset = (state.target - base)[:2]
         approach = jnp.dot(velocity[:2], offset) / (jnp.linalg.norm(offset) + 1e-6)
