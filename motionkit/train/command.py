@@ -21,23 +21,34 @@ The config is a TOML recipe with tables [env], [reward], [ppo], [amp], [run] and
   [priors.walk]
   paths = ["datasets/walk"]        # MCAP clips or folders (relative to the working directory)
   weight = 1.0
-Recipes (`motionkit recipes train`): walk_cpu, fly_cpu, walk_fly_cpu (hours on a CPU, resumed
-across sessions), walk_gpu, fly_gpu, walk_fly_gpu (the same on one GPU, in 7-minute calls),
-paper_gpu (the paper's settings) and tiny_cpu (seconds per iteration). A key left out keeps its
-default.
+A curriculum is a [curriculum.NAME] table per stage, in order; each changes keys of [env],
+[reward], [ppo] and [amp] and the priors' weights, and ends at the first evaluation that meets
+its goals (or after max_iterations in it), e.g.
+  [curriculum.walk]
+  env = { air_probability = 0.0 }
+  ppo = { init_std = 0.1 }
+  goals = { eval_approach_speed = ">= 0.3", eval_falls_per_episode = "<= 0.05" }
+  max_iterations = 4000
+The run logs each switch, and --resume goes on in the stage its checkpoint was saved in.
+Recipes (`motionkit recipes train`): walk_fly_cpu (walking, flying and switching from a fresh
+policy, curriculum and all: hours on a CPU, resumable), walk_cpu and fly_cpu (parts of the
+earlier hand-made runs), walk_gpu, fly_gpu, walk_fly_gpu (the same on one GPU, in 7-minute
+calls), paper_gpu (the paper's settings) and tiny_cpu (seconds per iteration). A key left out
+keeps its default.
 Physics ([env] impl): "auto" (the default) is MuJoCo MJX on a GPU and MuJoCo C (mujoco.batch,
 every core) on a CPU; "jax", "warp" and "mujoco" choose one. The run prints which it used.
 
 Outputs in --out: config.toml (resolved), train.csv and eval.csv (metrics per iteration and
 per evaluation), tensorboard/ (with tensorboardX installed), checkpoint.msgpack (the latest
 learner; --resume continues from it), rollouts/iter_N.mcap (the first evaluation episode, with
-its waypoints in the metadata, for `motionkit view`), summary.json.
+its waypoints in the metadata, for `motionkit view`), summary.json, curriculum.json (the stage
+the checkpoint is in, and each switch).
 
 Evaluation figures: waypoints reached per episode, share of time airborne and on the ground,
 thrust usage (mean T / T_max), falls per episode, episode duration.
 
   motionkit train --config tiny_cpu --out runs/tiny --priors none
-  motionkit train --config walk_cpu --out runs/walk              # then --resume to go on
+  motionkit train --config walk_fly_cpu --out runs/wf --seed 0   # then --resume to go on
   motionkit train --config paper_gpu --out runs/paper
   motionkit train --config paper_gpu --out runs/paper2 --devices 2   # 2 GPUs of this host
   motionkit train ablation --config paper_gpu --out runs/ablation"""
@@ -163,6 +174,12 @@ def add_commands(
         type=float,
         metavar="P",
         help="the chance of an air waypoint, 0-1, instead of the config's air_probability",
+    )
+    evaluation.add_argument(
+        "--stage",
+        metavar="NAME",
+        help="with a curriculum: evaluate in this stage's config (default: the stage of the "
+        "run's latest checkpoint; the last stage is the recipe's own task)",
     )
     robot_source(evaluation)
     evaluation.set_defaults(handler=_evaluate)
@@ -323,6 +340,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         args.seed,
         args.prior,
         args.air_share,
+        args.stage,
     )
     for name, value in figures.items():
         print(f"{name.removeprefix('eval_')} {value:.6g}")

@@ -55,7 +55,7 @@ def draw_curves(run: Path, path: Path | None = None) -> Path:
     """Draw RUN/train.csv and RUN/eval.csv into `path` (default RUN/curves.png).
 
     One panel per entry of PANELS over env-steps: the training figures per iteration with a
-    running mean, the evaluations as points.
+    running mean, the evaluations as points, a curriculum's stage switches as dotted lines.
 
     Args:
         run: the training run's folder.
@@ -88,21 +88,32 @@ def draw_curves(run: Path, path: Path | None = None) -> Path:
                 ax.plot(steps, running_mean(train[column], window), color=color, label=label)
             if f"eval_{column}" in evaluation:
                 ax.plot(eval_steps, evaluation[f"eval_{column}"], "o", color=color, markersize=4)
+        for switch in _stage_switches(train):
+            ax.axvline(switch, color="grey", linestyle=":", linewidth=1)
         ax.set_title(title, fontsize=10)
         ax.grid(alpha=0.3)
         if len(columns) > 1:
             ax.legend(fontsize=8)
     for ax in axes[-1]:
         ax.set_xlabel("env-steps [M]")
+    switches = " and curriculum stages (dotted)" if len(_stage_switches(train)) else ""
     figure.suptitle(
         f"{run.name}: training (line: running mean of {window} iterations) and "
-        f"deterministic evaluations (points)"
+        f"deterministic evaluations (points){switches}"
     )
     figure.tight_layout()
     path = run / "curves.png" if path is None else path
     with atomic_output(path) as stream:
         figure.savefig(stream, format="png", dpi=90)
     return path
+
+
+def _stage_switches(train: dict[str, np.ndarray]) -> np.ndarray:
+    """The env-steps [M] at which a curriculum's next stage began (none without one)."""
+    stage = train.get("stage")
+    if stage is None or len(stage) < 2:
+        return np.zeros(0)
+    return train["env_steps"][1:][np.diff(stage) != 0] / 1e6
 
 
 def _number(text: str) -> float:

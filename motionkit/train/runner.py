@@ -359,9 +359,11 @@ def evaluate_run(
     seed: int | None = None,
     prior: str | None = None,
     air_share: float | None = None,
+    stage: str | None = None,
 ) -> dict[str, float]:
     """A run's latest checkpoint in the evaluation of its config, from other starts or with
-    action noise: a way to find out where a policy fails.
+    action noise: a way to find out where a policy fails. A run with a curriculum is
+    evaluated in the stage of its latest checkpoint (OUT/curriculum.json), or in `stage`.
 
     Args:
         run: the OUT of `train` (its config.toml and checkpoint.msgpack; the priors' paths of
@@ -376,6 +378,8 @@ def evaluate_run(
         prior: start in the frames of this prior alone (one of the config's; the
             discriminator sees the same policy, the style figures compare with this prior).
         air_share: the chance of an air waypoint instead of the config's air_probability.
+        stage: evaluate in this stage of the config's curriculum (the last: the recipe's
+            own task).
 
     Returns:
         The figures ("eval_" names). With the defaults, those of the run's own evaluation at
@@ -389,7 +393,7 @@ def evaluate_run(
         raise TrainError(f"{checkpoint}: no such checkpoint")
     if not 0.0 <= prior_share <= 1.0 or noise < 0.0:
         raise TrainError(f"prior share {prior_share} must be in [0, 1], noise {noise} >= 0")
-    config = TrainConfig.from_toml(run / "config.toml")
+    config = _evaluated_stage(run, TrainConfig.from_toml(run / "config.toml"), stage)
     if prior_share > 0 and not config.priors:
         raise TrainError(f"{run}: starts in prior frames need priors, and the run has none")
     if prior is not None:
@@ -408,6 +412,17 @@ def evaluate_run(
     key = evaluation_key(seed, int(learner.iteration))
     chunks = config.run.eval_rollouts
     return evaluate(trainer, learner, key, chunks, prior_share, noise)[0]
+
+
+def _evaluated_stage(run: Path, config: TrainConfig, stage: str | None) -> TrainConfig:
+    """The config of the curriculum stage to evaluate in (the config itself without one)."""
+    if stage is not None:
+        if stage not in config.curriculum:
+            known = ", ".join(config.curriculum) or "none"
+            raise TrainError(f"{run}: no curriculum stage {stage!r} (its stages: {known})")
+        return config.stage(stage)
+    saved = curriculum.read_state(run, config)
+    return curriculum.stage_config(config, saved or curriculum.CurriculumState())
 
 
 def build_trainer(

@@ -122,7 +122,7 @@ def test_a_run_switches_stages_and_resumes_in_its_stage(tiny_config, robot, tmp_
 
     text = """
 [curriculum.short]
-env = { air_probability = 0.0 }
+reward = { w_thrust = 0.2 }
 max_iterations = 3
 
 [curriculum.rest]
@@ -149,3 +149,18 @@ reward = { w_thrust = 0.5 }
     assert any(x.startswith("curriculum stage 2/2 'rest' since iteration 3") for x in lines)
     with (tmp_path / "train.csv").open() as stream:
         assert [float(row["stage"]) for row in csv.DictReader(stream)][-1] == 1
+    # evaluated again, in the stage of the latest checkpoint: the run's last evaluation
+    from motionkit.train.runner import evaluate_run
+
+    with (tmp_path / "eval.csv").open() as stream:
+        last = list(csv.DictReader(stream))[-1]
+    again = evaluate_run(tmp_path, robot)
+    for name in ("eval_task_reward", "eval_approach_speed", "eval_reward_thrust"):
+        assert again[name] == pytest.approx(float(last[name]), rel=1e-5, abs=1e-7)
+    # in the first stage's config the thrust term weighs 0.2, not 0.5: the same motion (the
+    # same thrust term), another task reward
+    first = evaluate_run(tmp_path, robot, stage="short")
+    assert first["eval_reward_thrust"] == pytest.approx(again["eval_reward_thrust"], rel=1e-5)
+    assert first["eval_task_reward"] != pytest.approx(again["eval_task_reward"], rel=1e-4)
+    with pytest.raises(TrainError, match="no curriculum stage 'long' .*short, rest"):
+        evaluate_run(tmp_path, robot, stage="long")

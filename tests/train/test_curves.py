@@ -56,3 +56,11 @@ def test_a_folder_without_a_training_log_is_refused(tmp_path: Path) -> None:
     with pytest.raises(TrainError, match=r"no train\.csv"):
         draw_curves(tmp_path)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_stage_switches_are_read_where_the_stage_changes() -> None:
+    from motionkit.train.curves import _stage_switches
+
+    train = {"env_steps": np.array([1e6, 2e6, 3e6, 4e6]), "stage": np.array([0, 0, 1, 2])}
+    np.testing.assert_array_equal(_stage_switches(train), [3.0, 4.0])
+    assert len(_stage_switches({"env_steps": np.array([1e6])})) == 0
