@@ -204,6 +204,9 @@ def build_parser() -> argparse.ArgumentParser:
     from motionkit.viewer.command import add_commands as add_view_commands
 
     add_view_commands(stages, add_robot_source)
+    from motionkit.viewer.render_command import add_commands as add_render_commands
+
+    add_render_commands(stages, add_robot_source)
     from motionkit.pipeline.command import add_commands as add_pipeline_commands
 
     add_pipeline_commands(stages, add_robot_source)

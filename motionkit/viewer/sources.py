@@ -6,7 +6,8 @@ made for another model of the robot, with the same names, is shown with a warnin
 clip carries reaches the page escaped (`literal`): the page renders Markdown and raw HTML.
 
 Optional extras a clip may carry, drawn when present:
-- waypoints: metadata key "waypoints" (the config or metrics dict), a list of [x, y, z] [m];
+- waypoints: metadata key "waypoints" (the config or metrics dict), a list of [x, y, z] [m], or
+  of [time, x, y, z] (a rollout's: the clip time [s] each became the target);
 - contact forces (trajopt clips): `Trajectory.contact_forces`, (frames, corners, 3) [N] in the
   world frame, one row per name of `corner_names` (the robot's sole corners);
 - landmarks (retargeted clips): `Trajectory.landmarks`, (frames, L, 3) [m] in the world frame,
@@ -144,8 +145,8 @@ def load_motion(clip: ClipInfo, robot: Robot) -> Trajectory:
 
 
 def waypoints(clip: ClipInfo) -> np.ndarray:
-    """(N, 3) waypoints [m] from the metadata (record, config or metrics key "waypoints");
-    (0, 3) when there are none."""
+    """(N, 3) waypoints [m] from the metadata (record, config or metrics key "waypoints": rows
+    of [x, y, z], or a rollout's [time, x, y, z]); (0, 3) when there are none."""
     meta = clip.metadata
     value: Any = None
     if "waypoints" in clip.record:
@@ -158,7 +159,10 @@ def waypoints(clip: ClipInfo) -> np.ndarray:
     if value is None:
         return np.zeros((0, 3))
     try:
-        points = np.asarray(value, dtype=float).reshape(-1, 3)
+        points = np.asarray(value, dtype=float)
+        if points.ndim == 2 and points.shape[1] == 4:  # a rollout's [time, x, y, z] rows
+            points = points[:, 1:]
+        points = points.reshape(-1, 3)
     except (TypeError, ValueError) as exc:
         raise ViewerError(
             f"{clip.path}: metadata 'waypoints' should be a list of [x, y, z], got {value!r:.80}"

@@ -162,5 +162,5 @@ reward = { w_thrust = 0.5 }
     first = evaluate_run(tmp_path, robot, stage="short")
     assert first["eval_reward_thrust"] == pytest.approx(again["eval_reward_thrust"], rel=1e-5)
     assert first["eval_task_reward"] != pytest.approx(again["eval_task_reward"], rel=1e-4)
-    with pytest.raises(TrainError, match="no curriculum stage 'long' .*short, rest"):
+    with pytest.raises(TrainError, match=r"no curriculum stage 'long' .*short, rest"):
         evaluate_run(tmp_path, robot, stage="long")

@@ -62,6 +62,14 @@ def test_waypoints_from_metadata(run_dir: Path) -> None:
         waypoints(bad)
 
 
+def test_waypoints_of_a_rollout_drop_their_times(run_dir: Path) -> None:
+    """`motionkit play` and the evaluation rollouts store [time, x, y, z] rows."""
+    new = resolve_clips(run_dir)[0]
+    rows = [[0.0, 1.5, 0.0, 0.6], [2.25, 3.0, 1.0, 1.2]]
+    played = replace(new, record={**new.record, "waypoints": json.dumps(rows)})
+    np.testing.assert_allclose(waypoints(played), [[1.5, 0.0, 0.6], [3.0, 1.0, 1.2]])
+
+
 def test_description_names_clip_source_and_metrics(run_dir: Path) -> None:
     text = describe(resolve_clips(run_dir)[0], "a warning")
     assert "**new** — rollout, made by rollout" in text
