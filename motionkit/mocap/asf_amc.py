@@ -11,7 +11,12 @@ start along its axis frame and `l` lengthens it.
 AMC frames must be numbered consecutively. A clip read in degrees whose every rotation value
 (root and bones, all frames) stays within +-pi, while some reach RADIANS_HINT, is refused as
 radians mislabelled: read as degrees it would be a body frozen within 3 degrees of its rest pose,
-read as radians a motion of up to 180 degrees.
+read as radians a motion of up to 180 degrees. One whose root turns further (a heading past pi)
+but whose every joint (root aside) stays within +-2 pi is refused too when its root travels
+GLIDE or more: read as degrees a figure would glide that far without turning a joint 6.3
+degrees. Otherwise it is read, and `angle_unit_hint` names the likely cause when its
+retargeting fails: joints within +-2 pi read as degrees, or beyond +-2 pi read as radians (a
+full turn and more).
 """
 
 from __future__ import annotations
@@ -39,6 +44,7 @@ DEFAULT_RATE = 120.0  # Hz: CMU captures; AMC files store no rate
 _DOFS = ("rx", "ry", "rz", "tx", "ty", "tz", "l")
 _FRAME = re.compile(r"[0-9]+")
 RADIANS_HINT = 0.2  # the largest rotation value of a clip that reads as radians (11 degrees)
+GLIDE = 1.0  # m: a root that travels this far with no joint turned 2 pi degrees is misread
 
 
 @dataclass
@@ -235,7 +241,7 @@ def read_amc(path: Path, asf: Asf) -> tuple[Array, dict[str, Array], bool]:
         parsed = _checked_frames(lines, body, dofs, path)
     numbers, values = parsed
     _check_numbers(numbers, path)
-    _check_values(numbers, values, dofs, degrees, path)
+    _check_values(numbers, values, dofs, degrees, path, asf.scale)
     return numbers, values, degrees
 
 
@@ -258,14 +264,70 @@ def _check_numbers(numbers: Array, path: Path) -> None:
     raise MocapError(f"{path}: {problem}; AMC frames must be numbered consecutively")
 
 
+def _rotations(
+    values: dict[str, Array], dofs: dict[str, tuple[str, ...]], root: bool = True
+) -> list[Array]:
+    """The rotation values (T, n) of each bone (and the root, unless `root` is false)."""
+    return [
+        array[:, [d[0] == "r" for d in dofs[name]]]
+        for name, array in values.items()
+        if root or name != "root"
+    ]
+
+
+def angle_unit_hint(amc_path: Path, asf_path: Path) -> str:
+    """The likely cause of a retargeting that failed, when the AMC's joint angles (its root
+    aside) suggest the other angle unit than the one they are read in: all within +-2 pi (some
+    reaching RADIANS_HINT) but read as degrees, or beyond +-2 pi but read as radians. A phrase
+    naming the files' fix, or "" (also for files that do not read)."""
+    try:
+        asf = read_asf(asf_path)
+        _, values, degrees = read_amc(amc_path, asf)
+    except MocapError:
+        return ""
+    dofs = {"root": asf.root_order} | {b.name: b.dofs for b in asf.bones.values() if b.dofs}
+    largest = _joints_largest(values, dofs)
+    if degrees and RADIANS_HINT <= largest <= 2 * math.pi:
+        return (
+            f"{amc_path.name}'s angles look like radians read as degrees: its joint angles stay "
+            f"within +-2 pi (largest {largest:.3f}), so no joint turns more than "
+            f"{largest:.1f} degrees; add ':RADIANS' to the AMC header or set 'angle rad' in "
+            f"{asf_path.name}'s :units"
+        )
+    if not degrees and largest > 2 * math.pi:
+        return (
+            f"{amc_path.name}'s angles look like degrees read as radians: joint angles reach "
+            f"{largest:.1f}, beyond a full turn; remove ':RADIANS' from the AMC header or set "
+            f"'angle deg' in {asf_path.name}'s :units"
+        )
+    return ""
+
+
+def _joints_largest(values: dict[str, Array], dofs: dict[str, tuple[str, ...]]) -> float:
+    """The largest rotation value of the bones (the root aside: its heading can be anything)."""
+    joints = _rotations(values, dofs, root=False)
+    return max((float(np.abs(a).max()) for a in joints if a.size), default=0.0)
+
+
+def _travel(values: dict[str, Array], dofs: dict[str, tuple[str, ...]], scale: float) -> float:
+    """How far the root moves over the floor [m]: the diagonal of the extent of its x and z
+    (files are Y-up), in file units times `scale` (m per unit)."""
+    columns = [dofs["root"].index(d) for d in ("tx", "tz") if d in dofs["root"]]
+    if not columns:
+        return 0.0
+    return float(np.linalg.norm(np.ptp(values["root"][:, columns], axis=0))) * scale
+
+
 def _check_values(
     numbers: Array,
     values: dict[str, Array],
     dofs: dict[str, tuple[str, ...]],
     degrees: bool,
     path: Path,
+    scale: float,
 ) -> None:
-    """Finite values, and no radians read as degrees (see the module docstring)."""
+    """Finite values, and no radians read as degrees (see the module docstring); `scale`: m
+    per file unit."""
     for name, array in values.items():
         bad = np.argwhere(~np.isfinite(array))
         if len(bad):
@@ -276,12 +338,19 @@ def _check_values(
             )
     if not degrees:
         return
-    angles = [array[:, [d[0] == "r" for d in dofs[name]]] for name, array in values.items()]
-    largest = max((float(np.abs(a).max()) for a in angles if a.size), default=0.0)
+    largest = max((float(np.abs(a).max()) for a in _rotations(values, dofs) if a.size), default=0.0)
     if RADIANS_HINT <= largest <= math.pi:
         raise MocapError(
             f"{path}: read in degrees, but every rotation value lies within +-pi (largest "
             f"{largest:.3f}): radians, it seems; add ':RADIANS' to the AMC header or set "
+            "'angle rad' in the ASF's :units"
+        )
+    joints, travel = _joints_largest(values, dofs), _travel(values, dofs, scale)
+    if RADIANS_HINT <= joints <= 2 * math.pi and travel >= GLIDE:
+        raise MocapError(
+            f"{path}: read in degrees, but no joint turns more than {joints:.1f} degrees "
+            f"(every joint value within +-2 pi, largest {joints:.3f}) while the root travels "
+            f"{travel:.1f} m: radians, it seems; add ':RADIANS' to the AMC header or set "
             "'angle rad' in the ASF's :units"
         )
 

@@ -54,6 +54,7 @@ class ClipResult:
     # the figures beyond the quality gate ('name value > limit'): a failed clip, or one written
     # to the keep-failed folder
     beyond: tuple[str, ...] = ()
+    cause: str = ""  # what in the input likely explains a failure (see `likely_cause`)
 
     @property
     def quality(self) -> Quality:
@@ -130,21 +131,24 @@ def encode_clip(
     began = clock.perf_counter()
     try:
         motion = load_mocap(clip.path, asf=clip.asf)
-        read = clock.perf_counter()
-        cmu = bool(clip.cmu_clip)
-        source = Source(
-            file=clip.path.name,
-            clip=clip.cmu_clip or clip.name,
-            licence=CMU_LICENCE if cmu else "",
-            acknowledgement=CMU_ACKNOWLEDGEMENT if cmu else "",
-        )
-        span = config.trim.get(clip.name)
-        frames = motion.frames
-        if span is not None:  # the frames core.trimmed keeps
-            first, last = span_frames(motion.rate, span)
-            frames = last - first + 1
-        total = frames * (config.balance.passes + 1)  # the balance filter solves again
-        step = None if progress is None else (lambda t: progress(t + 1, total))
+    except MotionkitError as exc:
+        return ClipResult(clip.name, str(clip.path), None, error=str(exc)), b""
+    read = clock.perf_counter()
+    cmu = bool(clip.cmu_clip)
+    source = Source(
+        file=clip.path.name,
+        clip=clip.cmu_clip or clip.name,
+        licence=CMU_LICENCE if cmu else "",
+        acknowledgement=CMU_ACKNOWLEDGEMENT if cmu else "",
+    )
+    span = config.trim.get(clip.name)
+    frames = motion.frames
+    if span is not None:  # the frames core.trimmed keeps
+        first, last = span_frames(motion.rate, span)
+        frames = last - first + 1
+    total = frames * (config.balance.passes + 1)  # the balance filter solves again
+    step = None if progress is None else (lambda t: progress(t + 1, total))
+    try:
         trajectory, timings = retarget(
             motion.landmarks(), motion.rate, robot, config, source, step, span
         )
@@ -152,7 +156,9 @@ def encode_clip(
         data = encode(trajectory, robot)
         encoded = clock.perf_counter()
     except MotionkitError as exc:
-        return ClipResult(clip.name, str(clip.path), None, error=str(exc)), b""
+        cause = likely_cause(clip, motion.format)
+        error = f"{exc}; likely cause: {cause}" if cause else str(exc)
+        return ClipResult(clip.name, str(clip.path), None, error=error, cause=cause), b""
     stages = {
         "read": read - began,
         "targets": timings.targets,
@@ -162,7 +168,24 @@ def encode_clip(
     }
     metrics = dict(trajectory.metadata.metrics)
     result = ClipResult(clip.name, str(clip.path), None, frames, encoded - began, stages, metrics)
+    if result.quality.beyond(config.quality):
+        result = replace(result, cause=likely_cause(clip, motion.format))
     return result, data
+
+
+def likely_cause(clip: ClipInput, kind: str) -> str:
+    """What in a clip's input likely explains its failure, as a phrase, or "": for ASF/AMC,
+    joint angles that look like the other angle unit than the one they are read in
+    (motionkit.mocap.asf_amc.angle_unit_hint)."""
+    from motionkit.mocap.asf_amc import angle_unit_hint, find_asf
+
+    if kind != "asf/amc":
+        return ""
+    try:
+        asf = clip.asf if clip.asf is not None else find_asf(clip.path)
+    except MotionkitError:
+        return ""
+    return angle_unit_hint(clip.path, asf)
 
 
 def retarget_clip(
@@ -209,7 +232,9 @@ def _gated(
         return _write(result, out, data, key)
     if keep_failed is not None:
         return replace(_write(result, keep_failed, data), beyond=beyond)
-    error = f"beyond the clean figures: {', '.join(beyond)} (--keep-failed DIR writes it there)"
+    cause = f"; likely cause: {result.cause}" if result.cause else ""
+    figures = ", ".join(beyond)
+    error = f"beyond the clean figures: {figures}{cause} (--keep-failed DIR writes it there)"
     return replace(result, error=error, beyond=beyond)
 
 
@@ -428,7 +453,9 @@ def clip_line(result: ClipResult, done: int, total: int) -> str:
     if result.resumed:
         return f"{clip}: up to date, kept -> {result.output}"
     if result.beyond:
-        return f"{clip}: beyond the clean figures ({', '.join(result.beyond)}) -> {result.output}"
+        cause = f"; likely cause: {result.cause}" if result.cause else ""
+        figures = ", ".join(result.beyond)
+        return f"{clip}: beyond the clean figures ({figures}{cause}) -> {result.output}"
     rate = result.frames / result.seconds if result.seconds else 0.0
     return (
         f"{clip}: {result.frames} frames in {result.seconds:.2f} s ({rate:.0f} frames/s) "
@@ -498,5 +525,6 @@ def _result_json(result: ClipResult) -> dict[str, Any]:
         "stages_s": result.stages,
         "metrics": result.metrics,
         "error": result.error,
+        "cause": result.cause,
         "resumed": result.resumed,
     }

@@ -1,5 +1,12 @@
-"""The robot's limbs, feet and jets as capsules: for the clearance metric and, as cylinders in
-the IK's URDF, for PlaCo's self-collision avoidance."""
+"""The robot's limbs, feet and jets as capsules: for the clearance metric and, in the IK's URDF,
+for PlaCo's self-collision avoidance.
+
+The IK's URDF writes each capsule as a collision cylinder of the capsule's segment length and
+lists it under the link's <collision_checking> (an extension that pinocchio reads): pinocchio
+then loads a capsule. The closest points of two capsules move smoothly with the pose; those of
+a flat cylinder end jump from edge to edge, and the IK's iterations could then cycle between
+two poses instead of settling.
+"""
 
 from __future__ import annotations
 
@@ -86,8 +93,8 @@ def host_link(model: RobotModel, capsule: Capsule) -> str:
 
 
 def with_collision_cylinders(model: RobotModel, shapes: list[Capsule]) -> RobotModel:
-    """A copy of `model` whose only collision elements are the capsules, as cylinders in their
-    host links (the URDF has no capsule; each cylinder reaches over the capsule's rounded ends).
+    """A copy of `model` whose only collision elements are the capsules' segments, as cylinders
+    of the segment's length and the capsule's radius in their host links (see `capsule_urdf`).
     Visuals are dropped."""
     out = model.copy()
     poses = model.link_poses()
@@ -104,12 +111,31 @@ def with_collision_cylinders(model: RobotModel, shapes: list[Capsule]) -> RobotM
         length = float(np.linalg.norm(axis))
         origin = np.eye(4)
         origin[:3, :3] = _z_to(axis / length)
-        length += 2 * capsule.radius
         origin[:3, 3] = 0.5 * (ends[0] + ends[1])
         geometry = ET.Element("geometry")
         ET.SubElement(geometry, "cylinder", radius=repr(capsule.radius), length=repr(length))
         out.links[host].collisions.append(Shape(origin, geometry))
     return out
+
+
+def capsule_urdf(model: RobotModel, shapes: list[Capsule], header: str = "") -> str:
+    """The URDF text of `with_collision_cylinders(model, shapes)` with every collision cylinder
+    named ('<link>_capsule_<n>') and listed as a capsule in its link's <collision_checking>:
+    pinocchio loads each as a capsule of the cylinder's radius and length (its segment)."""
+    text = with_collision_cylinders(model, shapes).to_urdf(header)
+    head, _, body = text.partition("<robot")
+    robot = ET.fromstring("<robot" + body)
+    for link in robot.iter("link"):
+        cylinders = link.findall("collision")
+        if not cylinders:
+            continue
+        checking = ET.SubElement(link, "collision_checking")
+        for n, collision in enumerate(cylinders):
+            name = f"{link.get('name')}_capsule_{n}"
+            collision.set("name", name)
+            ET.SubElement(checking, "capsule", name=name)
+    ET.indent(robot, space="  ")
+    return f"{head}{ET.tostring(robot, encoding='unicode')}\n"
 
 
 def _z_to(direction: Array) -> Array:

@@ -27,8 +27,8 @@ name such as cmu_walk) can list clips too; its settings are RetargetConfig's fie
 Each clip becomes DIR/<name>.mcap with the resolved config and its quality metrics in the
 metadata; DIR/retarget_summary.json holds every clip's metrics and stage times. A clip that
 fails writes nothing and makes the exit status 1. So does a clip beyond the figures of a clean
-walk (the quality gate: foot slide p95 > 1 cm/s, penetration > 2 mm, any limit violation, mean
-foot error > 3 cm; a recipe's [quality] table sets other limits), unless --keep-failed DIR2
+walk (the quality gate: foot slide p95 > 0.3 cm/s, penetration > 1 mm, any limit violation,
+mean foot error > 3 cm; a recipe's [quality] table sets other limits), unless --keep-failed DIR2
 is given: such clips are then written to DIR2, never where priors are read.
 
 --cluster ADDRESS runs the clips on a Ray cluster (the [cluster] extra) instead of local

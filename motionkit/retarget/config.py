@@ -17,7 +17,8 @@ class Weights:
 
     foot_position: float = 1000.0
     foot_orientation: float = 100.0
-    # a sole in contact (blended in over the release after it): above the swinging one's
+    # a sole in contact, when contacts are soft (hard_contacts false), and one just released
+    # (blended out over the release time): above the swinging one's
     contact_foot_position: float = 100000.0
     contact_foot_orientation: float = 10000.0
     pelvis_position: float = 10.0
@@ -74,8 +75,8 @@ class CleanWalk:
     """The quality gate: the figures of a clean retargeted walk. A clip beyond any of them is a
     failed clip (not written to the output folder, unless kept in another)."""
 
-    foot_slide_p95_m_s: float = 0.01
-    penetration_max_m: float = 0.002
+    foot_slide_p95_m_s: float = 0.003  # m/s: a planted foot (hard contacts) does not slide
+    penetration_max_m: float = 0.001
     joint_position_violations: int = 0
     joint_velocity_violations: int = 0
     feet_error_mean_m: float = 0.03
@@ -121,9 +122,21 @@ class RetargetConfig:
     # The robot performs the clip this many times slower than the human did (targets are made
     # in the human's time, then stretched): a slower walk asks less of ankles and knees.
     slowdown: float = 1.0
-    iterations: int = 2  # PlaCo solves per frame (warm-started from the previous frame)
-    settle_iterations: int = 100  # solves on the first frame
+    # Each frame is solved to convergence, warm-started from the previous one: PlaCo solves
+    # until the largest component of a step (rad, or m for the base) is below `tolerance`, at
+    # most `iterations` of them (`settle_iterations` on the first frame, from the standing
+    # posture). A frame stopped short of its solution would carry its error into the next ones,
+    # and another CPU's rounding would then give another motion.
+    tolerance: float = 1e-9
+    iterations: int = 100
+    settle_iterations: int = 100
+    # Joint velocity limits hold from frame to frame: each joint moves at most its limit times
+    # the frame time away from where the previous frame left it.
     velocity_limits: bool = True
+    # A foot in contact is held by a hard constraint where the robot's sole was when the
+    # contact began (x, y, yaw; flat on the ground) for the whole contact: it cannot slide;
+    # false: a heavily weighted soft task (`weights.contact_foot_*`) instead.
+    hard_contacts: bool = True
     weights: Weights = Weights()
     points: RobotPoints = RobotPoints()
     balance: Balance = Balance()
@@ -143,6 +156,7 @@ class RetargetConfig:
         check(self, RetargetError, ">= 0", "smoothing_hz", "min_run", "ground_range")  # 0: off
         check(self, RetargetError, ">= 0", "collision_margin", "swing_clearance")
         check(self, RetargetError, ">= 1", "contact_hysteresis", "iterations", "settle_iterations")
+        check(self, RetargetError, "> 0", "tolerance")
         check(self, RetargetError, "finite", "arm_abduction")
         for name, (start, end) in self.trim.items():
             if not 0.0 <= start < end < float("inf"):

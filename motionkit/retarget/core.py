@@ -55,6 +55,7 @@ class _Runs:
     progress: Callable[[int], None] | None
     solves: int = 0
     reports: dict[bytes, PhysicsReport] = field(default_factory=dict)
+    convergence: dict[bytes, dict[str, float | int]] = field(default_factory=dict)
 
 
 def retarget(
@@ -116,6 +117,7 @@ def retarget(
     solved = clock.perf_counter()
     # tracking figures against what the IK followed: the balanced targets
     metrics = compute_metrics(robot, goals, points, base, joints) | metrics
+    metrics |= runs.convergence[_key(base, joints)]
     metrics["scale"] = targets.scale
     metrics["slowdown"] = config.slowdown
     if span is not None:
@@ -132,12 +134,19 @@ def _solve(runs: _Runs, goals: Targets) -> tuple[Array, Array]:
     runs.solves += 1
     progress = runs.progress
     step = None if progress is None else (lambda t: progress(offset + t))
-    return solve_motion(runs.robot, goals, runs.points, runs.config, step)
+    solution = solve_motion(runs.robot, goals, runs.points, runs.config, step)
+    runs.convergence[_key(solution.base, solution.joints)] = solution.figures()
+    return solution.base, solution.joints
+
+
+def _key(base: Array, joints: Array) -> bytes:
+    """A motion's identity (base poses, joints), by content."""
+    return hashlib.sha256(base.tobytes() + joints.tobytes()).digest()
 
 
 def _check(runs: _Runs, base: Array, joints: Array) -> PhysicsReport:
     """The physics of the motion (base poses (T, 4, 4), joints (T, J)), checked once."""
-    key = hashlib.sha256(base.tobytes() + joints.tobytes()).digest()
+    key = _key(base, joints)
     if key not in runs.reports:
         runs.reports[key] = check_physics(_trajectory(runs, base, joints), runs.robot)
     return runs.reports[key]

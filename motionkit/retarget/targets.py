@@ -7,8 +7,9 @@ midpoint; knees and ankles lie along the human's thigh and shank directions at t
 and shank lengths. A human foot is in contact while the lower of its ankle and toe is near where
 that landmark stands (its lowest nearby: floors are not quite level) and the slower of the two is
 nearly still, with hysteresis (`detect_contacts`). During a contact the sole target is flat on the
-ground (z = 0) and locked where the contact began; over `release_time` before it the target closes
-in on the lock, and after it blends back to the free pose (`lock_offsets`).
+ground (z = 0) and locked where the contact began (the IK holds it there, motionkit/retarget/
+tasks.py); over `release_time` before it the target closes in on the lock, and after it blends
+back to the free pose, both along smoothsteps (`lock_offsets`).
 """
 
 from __future__ import annotations
@@ -291,6 +292,12 @@ def make_targets(
     )
 
 
+def smoothstep(u: Array) -> Array:
+    """3 u^2 - 2 u^3 of u clipped to [0, 1]: 0 to 1 with zero slope at both ends."""
+    u = np.clip(u, 0.0, 1.0)
+    return u * u * (3.0 - 2.0 * u)
+
+
 def lock_offsets(planar: Array, contact: Array, window: int) -> tuple[Array, Array, Array]:
     """Offsets (T, 3) of x, y and yaw that take the free sole `planar` (T, 3) onto the contact
     locks, the weight (T,) of the lock against the human's height and tilt, and the hold
@@ -300,7 +307,10 @@ def lock_offsets(planar: Array, contact: Array, window: int) -> tuple[Array, Arr
     sole there; over `window` frames before it the sole closes in on it (the offset's weight
     rising from 0 to 1), so that a foot that lands moving stops over its lock rather than
     skidding into it; over `window` frames after it the offset the lock had last is carried
-    out as the weight falls. Where two contacts' windows overlap, their weights share 1."""
+    out as the weight falls. The weights rise and fall as smoothsteps (3 u^2 - 2 u^3 of the
+    share u of the window gone by), flat at both ends: a sole arrives at its lock, and leaves
+    it, at the lock's (zero) speed. Where two contacts' windows overlap, their weights share
+    1."""
     frames = len(planar)
     runs = _runs(contact)
     offset, total = np.zeros((frames, 3)), np.zeros(frames)
@@ -311,10 +321,10 @@ def lock_offsets(planar: Array, contact: Array, window: int) -> tuple[Array, Arr
         offset[start:stop] = lock - planar[start:stop]
         total[start:stop] = 1.0
         before = slice(max(runs[n - 1][1] if n else 0, start - window), start)
-        rising = 1.0 - (start - index[before]) / window
+        rising = smoothstep(1.0 - (start - index[before]) / window)
         offset[before] += rising[:, None] * (lock - planar[before])
         after = slice(stop, min(runs[n + 1][0] if n + 1 < len(runs) else frames, stop + window))
-        falling = 1.0 - (index[after] - stop + 1) / window
+        falling = smoothstep(1.0 - (index[after] - stop + 1) / window)
         offset[after] += falling[:, None] * (lock - planar[stop - 1])
         hold[after] = falling
         for part, weight in ((before, rising), (after, falling)):

@@ -1,8 +1,9 @@
 """The IK's tasks on a PlaCo solver. Each is configured once, from the config and the robot, and
 `update(targets, t)` sets its targets for frame t; one whose target follows the robot's own pose
 (an elbow: along the human upper arm from the robot's shoulder) also `track`s it before each
-solve. The posture and the self-collision constraint are fixed; the ground guard holds sole
-corners up on the frames that pushed them below the ground."""
+solve. A sole in contact is a hard constraint (PlaCo holds it exactly) at its lock. The posture
+and the self-collision constraint are fixed; the ground guard holds sole corners up on the
+frames that pushed them below the ground."""
 
 from __future__ import annotations
 
@@ -29,6 +30,11 @@ class Task:
     def track(self) -> None:
         """Before each solve: move a target that follows the robot's current pose."""
 
+    def settled(self) -> bool:
+        """After the first frame's solve from the standing posture: whether the task changed
+        (and the frame is to be solved again)."""
+        return False
+
 
 class RootTask(Task):
     """The root link's pose follows the human pelvis."""
@@ -53,24 +59,61 @@ class TorsoTask(Task):
 
 
 class FootTask(Task):
-    """Sole `index` of the targets: its pose, weighted up while it holds a contact. A contact
-    locks the sole where the robot's foot is when it lands, not where the plan put it: the
-    landing offset (x, y, yaw of the robot's sole minus the plan's) applies while it holds."""
+    """Sole `index` of the targets.
+
+    A contact locks the sole where the robot's foot is when it lands, not where the plan put
+    it: the landing offset (x, y, yaw of the robot's sole, as the previous frame left it, minus
+    the plan's) applies while the hold weight lasts, and the weights rise to the contact ones
+    with it. With `hard`, a sole in contact is a hard constraint at its lock (the plan's sole
+    shifted by the landing offset at touchdown, flat on the ground, kept for the whole
+    contact); a contact in the first frame becomes hard once that frame has settled from the
+    standing posture (a hard constraint far from the robot's pose could ask more than its
+    joint limits allow)."""
 
     def __init__(
-        self, solver: Any, wrapper: Any, foot: FootSpec, index: int, weights: Weights
+        self,
+        solver: Any,
+        wrapper: Any,
+        foot: FootSpec,
+        index: int,
+        weights: Weights,
+        hard: bool = True,
     ) -> None:
         self.wrapper, self.sole, self.index, self.weights = wrapper, foot.sole, index, weights
+        self.hard = hard
         self.task = solver.add_frame_task(foot.sole, np.eye(4))
         self.landing = np.zeros(3)
+        self.lock: Array | None = None  # the pose held in the current contact
+        self.pending: Array | None = None  # the first frame's, until it has settled
 
     def update(self, targets: Targets, t: int) -> None:
         k, plan = self.index, targets.soles[t, self.index]
-        if t > 0 and targets.contacts[t, k] and not targets.contacts[t - 1, k]:
+        contact = bool(targets.contacts[t, k])
+        if not contact or (t > 0 and not targets.contacts[t - 1, k]):
+            self.lock = None
+        if contact and t > 0 and not targets.contacts[t - 1, k]:
             self.landing = _planar_offset(self.wrapper.get_T_world_frame(self.sole), plan)
         hold = targets.hold[t, k]
-        self.task.T_world_frame = _shifted(plan, hold * self.landing)
-        self.task.configure(self.sole, "soft", *foot_weights(self.weights, hold))
+        target = _shifted(plan, hold * self.landing)
+        self.pending = target if self.hard and contact and t == 0 else None
+        if self.hard and contact and t > 0:
+            if self.lock is None:
+                self.lock = target
+            self._hold(self.lock)
+        else:
+            self.task.T_world_frame = target
+            self.task.configure(self.sole, "soft", *foot_weights(self.weights, hold))
+
+    def settled(self) -> bool:
+        if self.pending is None:
+            return False
+        self.lock, self.pending = self.pending, None
+        self._hold(self.lock)
+        return True
+
+    def _hold(self, pose: Array) -> None:
+        self.task.T_world_frame = pose
+        self.task.configure(self.sole, "hard")
 
 
 class KneeTask(Task):
@@ -114,10 +157,11 @@ def make_tasks(
         TorsoTask(solver, config.points.torso_frame, weights),
     ]
     # Made foot, knee, elbow per side: PlaCo sums its tasks in the order of their addresses,
-    # and another order rounds differently, which a few frames of a clip amplify to 1e-3 rad.
+    # and another order rounds differently (each frame solved to convergence keeps that at the
+    # size of the rounding; two solves a frame once amplified it to 1e-3 rad).
     for k, (foot, side) in enumerate(zip_longest(robot.spec.feet, SIDES)):
         if foot is not None:
-            tasks.append(FootTask(solver, wrapper, foot, k, weights))
+            tasks.append(FootTask(solver, wrapper, foot, k, weights, config.hard_contacts))
         if side is not None:
             shoulder, elbow = points[f"{side}_shoulder"], points[f"{side}_elbow"]
             tasks.append(KneeTask(solver, points[f"{side}_knee"], k, weights.knee))

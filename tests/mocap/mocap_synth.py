@@ -291,3 +291,33 @@ def arms_down(frames: int, start: int = 0) -> list[dict[str, tuple[float, ...]]]
             "LeftUpLeg": (0.0, 0.0, swing), "RightUpLeg": (0.0, 0.0, -swing),
         })  # fmt: skip
     return out
+
+
+def amc_in_radians(
+    amc: Path, asf: Path, out: Path, root_turn: float = 0.0, frames: int | None = None
+) -> Path:
+    """`amc` (degrees) written to `out` with its rotation values in radians while its header
+    and `asf` still declare degrees: the mix-up of a tool that exported radians. `root_turn`
+    [rad] is added to the root's RY (2 pi: the same heading, past pi); `frames`: only the
+    first ones."""
+    from motionkit.mocap.asf_amc import read_asf
+
+    skeleton = read_asf(asf)
+    dofs = {"root": skeleton.root_order} | {b.name: b.dofs for b in skeleton.bones.values()}
+    lines, count = [], 0
+    for line in amc.read_text().splitlines():
+        words = line.split()
+        if words and words[0].isdigit():
+            count += 1
+            if frames is not None and count > frames:
+                break
+        elif words and words[0] in dofs:
+            values = [float(w) for w in words[1:]]
+            for i, dof in enumerate(dofs[words[0]]):
+                if dof.startswith("r"):
+                    turn = root_turn if (words[0], dof) == ("root", "ry") else 0.0
+                    values[i] = np.radians(values[i]) + turn
+            line = " ".join([words[0], *(f"{v:.9g}" for v in values)])
+        lines.append(line)
+    out.write_text("\n".join(lines) + "\n")
+    return out

@@ -5,11 +5,19 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from mocap_synth import amc_text, synth_body, synth_files, synth_motion, write_asf
+from mocap_synth import (
+    amc_in_radians,
+    amc_text,
+    synth_body,
+    synth_files,
+    synth_motion,
+    write_asf,
+)
 
 from motionkit.mocap import MocapError, load_mocap
-from motionkit.mocap.asf_amc import _dof_motion, find_asf
+from motionkit.mocap.asf_amc import _dof_motion, angle_unit_hint, find_asf, read_amc, read_asf
 from motionkit.mocap.skeleton import axis_rotation
+from motionkit.recipes import sample_mocap
 
 
 @pytest.fixture(scope="module")
@@ -184,3 +192,76 @@ def test_bad_asf(tmp_path: Path, synth: dict[str, Path]) -> None:
     fails(text.replace("axis 0 0 20  XYZ", "axis 0 0 20  XYW", 1), r"axis order 'XYW'")
     fails(text.replace("    lfemur ltibia\n", ""), r"not reachable from root.*ltibia")
     fails(":name nothing\n", r"no :bonedata bones")
+
+
+# --- angles in the other unit than the files declare -------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def sample_11() -> tuple[Path, Path]:
+    """The offline sample's 11_01.amc (degrees) and its 11.asf."""
+    return sample_mocap() / "11_01.amc", sample_mocap() / "11.asf"
+
+
+def test_the_sample_angles_by_hand(sample_11: tuple[Path, Path]) -> None:
+    """What the messages below quote: 11_01's largest joint value is 117.494 degrees (2.051
+    rad), 82.244 (1.435 rad) in its first second; its root moves 3.1 m over the floor (a
+    diagonal of the TX and TZ extents in units of 0.0254 / 0.45 m), 0.17 m in that second."""
+    amc, asf = sample_11
+    skeleton = read_asf(asf)
+    _, values, degrees = read_amc(amc, skeleton)
+    joints = [a for name, a in values.items() if name != "root"]  # CMU bones: rotations only
+    assert degrees and max(np.abs(a).max() for a in joints) == pytest.approx(117.494)
+    assert max(np.abs(a[:120]).max() for a in joints) == pytest.approx(82.2437)
+    assert np.radians([117.494, 82.2437]) == pytest.approx([2.0507, 1.4354], abs=1e-4)
+    root = values["root"][:, [0, 2]] * 0.0254 / 0.45
+    assert np.linalg.norm(np.ptp(root, axis=0)) == pytest.approx(3.1475, abs=1e-4)
+    assert np.linalg.norm(np.ptp(root[:120], axis=0)) == pytest.approx(0.1706, abs=1e-4)
+    assert angle_unit_hint(amc, asf) == ""
+
+
+def test_radians_under_a_degrees_header_are_refused(
+    sample_11: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """The sample in radians: every value within +-pi, refused by that alone; with its heading
+    past pi (2 pi added to the root's RY: the same motion) refused as a body that glides 3.1 m
+    without turning a joint 2.1 degrees."""
+    amc, asf = sample_11
+    shutil.copy(asf, tmp_path / "11.asf")
+    plain = amc_in_radians(amc, asf, tmp_path / "11_01.amc")
+    within_pi = r"every rotation value lies within \+-pi \(largest 2\.051\)"
+    with pytest.raises(MocapError, match=within_pi):
+        load_mocap(plain)
+    turned = amc_in_radians(amc, asf, tmp_path / "11_02.amc", root_turn=2 * np.pi)
+    message = (
+        r"11_02\.amc: read in degrees, but no joint turns more than 2\.1 degrees \(every joint "
+        r"value within \+-2 pi, largest 2\.051\) while the root travels 3\.1 m: radians, it "
+        r"seems; add ':RADIANS' to the AMC header or set 'angle rad' in the ASF's :units$"
+    )
+    with pytest.raises(MocapError, match=message):
+        load_mocap(turned)
+
+
+def test_angle_unit_hints(sample_11: tuple[Path, Path], tmp_path: Path) -> None:
+    """The sample's first second in radians, heading past pi: it stands (the root moves
+    0.17 m), so it reads, and the hint names the mix-up; the synthetic take's degrees under a
+    ':RADIANS' header reach its largest joint value (a knee at 10 + 50 sin^2 (4 t) degrees)."""
+    amc, asf = sample_11
+    standing = amc_in_radians(amc, asf, tmp_path / "11_01.amc", root_turn=2 * np.pi, frames=120)
+    assert load_mocap(standing, asf=asf).frames == 120
+    assert angle_unit_hint(standing, asf) == (
+        "11_01.amc's angles look like radians read as degrees: its joint angles stay within "
+        "+-2 pi (largest 1.435), so no joint turns more than 1.4 degrees; add ':RADIANS' to "
+        "the AMC header or set 'angle rad' in 11.asf's :units"
+    )
+    files = synth_files(tmp_path)
+    values = synth_motion(synth_body())
+    largest = max(np.abs(v).max() for name, v in values.items() if name != "root")
+    assert largest == pytest.approx(10 + 50 * np.sin(4 * 0.4) ** 2)
+    files["amc"].write_text(files["amc"].read_text().replace(":DEGREES", ":RADIANS"))
+    assert angle_unit_hint(files["amc"], files["asf"]) == (
+        f"07_03.amc's angles look like degrees read as radians: joint angles reach "
+        f"{largest:.1f}, beyond a full turn; remove ':RADIANS' from the AMC header or set "
+        "'angle deg' in 07.asf's :units"
+    )
+    assert angle_unit_hint(tmp_path / "missing.amc", files["asf"]) == ""

@@ -30,8 +30,8 @@ def result():
 def test_walker_retargets_cleanly(result) -> None:
     _, trajectory = result
     m = trajectory.metadata.metrics
-    assert m["foot_slide_p95_m_s"] <= 0.01  # the walker's own feet slide ~9 cm/s at contact edges
-    assert m["penetration_max_m"] <= 0.002
+    assert m["foot_slide_p95_m_s"] <= 0.003  # the walker's own feet slide ~9 cm/s at contact edges
+    assert m["penetration_max_m"] <= 0.001
     assert m["joint_position_violations"] == 0 and m["joint_velocity_violations"] == 0
     assert m["feet_error_mean_m"] <= 0.03 and m["knees_error_mean_m"] <= 0.03
     robot = ironcub()
@@ -198,7 +198,8 @@ def test_slowdown_stretches_time_and_keeps_the_poses() -> None:
 @pytest.mark.parametrize("clearance", [0.0, 0.02])
 def test_a_swinging_sole_clears_the_floor(clearance: float) -> None:
     """A foot that stands, then drags along the floor (toe-off): its sole target sits on the
-    floor in contact and rises to `clearance` above it over the release time."""
+    floor in contact and rises to `clearance` above it over the release time, as a smoothstep
+    (3 u^2 - 2 u^3 of the share u of the release time gone by)."""
     from motionkit.retarget.points import robot_points
     from motionkit.retarget.targets import RobotGeometry, _sole_targets
 
@@ -216,8 +217,9 @@ def test_a_swinging_sole_clears_the_floor(clearance: float) -> None:
     window = round(config.release_time * rate)  # 20 frames
     assert np.allclose(lowest[:40], 0.0, atol=1e-9)
     assert np.allclose(lowest[40 + window :], clearance, atol=1e-9)
-    blend = lowest[40 : 40 + window]  # the weight of the human's height rises linearly
-    assert np.allclose(blend, clearance * (np.arange(1, window + 1) / window), atol=1e-9)
+    blend = lowest[40 : 40 + window]  # the weight of the human's height: a smoothstep
+    u = np.arange(1, window + 1) / window
+    assert np.allclose(blend, clearance * (3 * u**2 - 2 * u**3), atol=1e-9)
 
 
 def test_trim_keeps_the_span_of_the_motion() -> None:

@@ -1,11 +1,11 @@
-"""Capsules as URDF collision cylinders: placed where the capsules are (checked with pinocchio)."""
+"""Capsules in the IK's URDF: pinocchio loads capsules where the capsules are."""
 
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
-from motionkit.retarget.bodies import capsules, host_link, with_collision_cylinders
+from motionkit.retarget.bodies import capsule_urdf, capsules, host_link
 from motionkit.retarget.config import RetargetConfig
 from motionkit.retarget.metrics import Kinematics
 from motionkit.retarget.points import robot_points
@@ -14,14 +14,14 @@ from motionkit.robot import Robot, ironcub
 pin = pytest.importorskip("pinocchio")
 
 
-def test_cylinders_follow_the_capsules(tmp_path) -> None:
+def test_pinocchio_loads_the_capsules(tmp_path) -> None:
     robot = ironcub()
     points = robot_points(robot, RetargetConfig().points)
     shapes, adjacent = capsules(robot, points)
     assert host_link(robot.model, shapes[0]) == "l_upper_leg"  # thigh: hip centre to knee
     assert frozenset(("l_thigh", "l_shank")) in adjacent
     path = tmp_path / "capsules.urdf"
-    path.write_text(with_collision_cylinders(robot.model, shapes).to_urdf())
+    path.write_text(capsule_urdf(robot.model, shapes, "capsules"))
     model = pin.buildModelFromUrdf(str(path))
     geometry = pin.buildGeomFromUrdf(model, str(path), pin.COLLISION)
     data, geometry_data = model.createData(), pin.GeometryData(geometry)
@@ -39,14 +39,16 @@ def test_cylinders_follow_the_capsules(tmp_path) -> None:
         for capsule, host in zip(shapes, hosts, strict=True):
             index = _object_of(geometry, host, shapes, hosts, capsule)
             placement = geometry_data.oMg[index]
-            half = geometry.geometryObjects[index].geometry.halfLength - capsule.radius
+            shape = geometry.geometryObjects[index].geometry
+            assert type(shape).__name__ == "Capsule", capsule.name
+            half = shape.halfLength  # a capsule's segment: its rounded ends reach beyond
             axis = placement.rotation[:, 2]
             ends = [placement.translation - half * axis, placement.translation + half * axis]
             start, end = kin.point(capsule.start)[t], kin.point(capsule.end)[t]
             # the hip centre is a least-squares meeting point of axes that miss each other by
             # about 0.3 mm, so it is not exactly fixed in the thigh
             assert np.allclose(ends, [start, end], atol=1e-3), capsule.name
-            assert geometry.geometryObjects[index].geometry.radius == capsule.radius
+            assert shape.radius == capsule.radius
 
 
 def test_jet_capsules_have_the_spec_size_and_unsized_jets_none() -> None:
@@ -67,6 +69,6 @@ def test_jet_capsules_have_the_spec_size_and_unsized_jets_none() -> None:
 
 
 def _object_of(geometry, host, shapes, hosts, capsule) -> int:
-    """Index of the capsule's cylinder: the n-th collision object of its host link."""
+    """Index of the capsule's collision object: the n-th of its host link."""
     nth = [c.name for c, h in zip(shapes, hosts, strict=True) if h == host].index(capsule.name)
     return geometry.getGeometryId(f"{host}_{nth}")

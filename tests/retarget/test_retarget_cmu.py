@@ -31,9 +31,9 @@ def metrics(clip) -> dict:
 
 
 def test_feet_planted_within_limits(metrics: dict) -> None:
-    assert metrics["foot_slide_p95_m_s"] <= 0.01
+    assert metrics["foot_slide_p95_m_s"] <= 0.003  # the gate; hard contacts: about 1e-10
     assert 0.05 <= metrics["source_slide_p95_m_s"]  # the human's own feet slide far more
-    assert metrics["penetration_max_m"] <= 0.002
+    assert metrics["penetration_max_m"] <= 0.001
     assert metrics["joint_position_violations"] == 0
     assert metrics["joint_velocity_violations"] == 0
     assert metrics["feet_error_mean_m"] <= 0.03

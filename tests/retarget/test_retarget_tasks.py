@@ -113,26 +113,81 @@ def test_one_foot_task_per_spec_foot_in_the_order_placo_had() -> None:
     assert solver.made[-1].joints == spec.posture_angles()
 
 
+def _landing_plan(frames: int) -> Targets:
+    """One sole walked along x by 0.1 m a frame by the plan, in contact on frames 1 and 2,
+    its hold weight 1 there and 0.5 on frame 3."""
+    targets = _targets(frames, 1)
+    targets.soles[:, 0] = [_pose(0.1 * t, 0.0, 0.0) for t in range(frames)]
+    targets.contacts[1:3, 0] = True
+    targets.hold[1:3, 0] = 1.0
+    targets.hold[3, 0] = 0.5
+    return targets
+
+
 def test_foot_locks_where_the_robot_landed() -> None:
-    """The plan walks the sole along x by 0.1 m a frame and lands it at frame 1; the robot's
-    sole is then at (0.12, 0.03), turned 0.1 rad: the offset (0.02, 0.03, 0.1) applies from
-    there on, with the contact weights."""
+    """The plan lands the sole at frame 1; the robot's sole is then at (0.12, 0.03), turned
+    0.1 rad (the landing offset (0.02, 0.03, 0.1)). The contact holds it there, a hard
+    constraint, also on frame 2 where the plan has moved on to x = 0.2 and the robot's sole
+    is elsewhere; on frame 3 the contact is over and half of the offset applies to the plan's
+    (0.3, 0): (0.31, 0.015), yaw 0.05, soft with the weights half way to the contact ones."""
     weights = RetargetConfig().weights
-    targets = _targets(3, 1)
-    targets.soles[:, 0] = [_pose(0.1 * t, 0.0, 0.0) for t in range(3)]
-    targets.contacts[1:, 0] = True
-    targets.hold[1:, 0] = 1.0
+    targets = _landing_plan(4)
     wrapper = FakeWrapper({"sole": _pose(0.12, 0.03, 0.0, 0.1)})
     foot = FootTask(FakeSolver(), wrapper, FootSpec("left", "sole", ("c",)), 0, weights)
     foot.update(targets, 0)
     np.testing.assert_array_equal(foot.task.T_world_frame, targets.soles[0, 0])
+    assert foot.task.priority == "soft"
     assert foot.task.weights == (weights.foot_position, weights.foot_orientation)
     foot.update(targets, 1)
-    np.testing.assert_allclose(foot.task.T_world_frame, _pose(0.12, 0.03, 0.0, 0.1), atol=1e-15)
-    wrapper.poses["sole"] = _pose(0.5, 0.5, 0.0)  # no landing: the offset stays
+    lock = foot.task.T_world_frame
+    np.testing.assert_allclose(lock, _pose(0.12, 0.03, 0.0, 0.1), atol=1e-15)
+    assert (foot.task.priority, foot.task.weights) == ("hard", ())
+    wrapper.poses["sole"] = _pose(0.5, 0.5, 0.0)  # no landing: the lock stays
     foot.update(targets, 2)
+    np.testing.assert_array_equal(foot.task.T_world_frame, lock)
+    assert foot.task.priority == "hard"
+    foot.update(targets, 3)
+    np.testing.assert_allclose(foot.task.T_world_frame, _pose(0.31, 0.015, 0.0, 0.05), atol=1e-15)
+    assert foot.task.priority == "soft"
+    assert foot.task.weights == pytest.approx((50500.0, 5050.0))
+
+
+def test_a_soft_contact_follows_the_plan_shifted_by_the_landing() -> None:
+    """hard_contacts off: on frame 2 the sole task is the plan's (0.2, 0) shifted by the
+    landing offset, (0.22, 0.03), yaw 0.1, with the contact weights."""
+    weights = RetargetConfig().weights
+    targets = _landing_plan(4)
+    wrapper = FakeWrapper({"sole": _pose(0.12, 0.03, 0.0, 0.1)})
+    foot = FootTask(FakeSolver(), wrapper, FootSpec("left", "sole", ("c",)), 0, weights, False)
+    for t in range(3):
+        foot.update(targets, t)
     np.testing.assert_allclose(foot.task.T_world_frame, _pose(0.22, 0.03, 0.0, 0.1), atol=1e-15)
+    assert foot.task.priority == "soft"
     assert foot.task.weights == (weights.contact_foot_position, weights.contact_foot_orientation)
+    assert not foot.settled()
+
+
+def test_a_first_frame_contact_turns_hard_once_settled() -> None:
+    """A contact from frame 0: soft while the robot settles from its standing posture, then
+    held hard where the plan put it (the robot's standing sole is no landing); a foot in
+    the air at frame 0 stays as it is."""
+    weights = RetargetConfig().weights
+    targets = _landing_plan(4)
+    targets.contacts[0, 0] = True
+    targets.hold[0, 0] = 1.0
+    wrapper = FakeWrapper({"sole": _pose(0.5, 0.5, 0.0)})
+    foot = FootTask(FakeSolver(), wrapper, FootSpec("left", "sole", ("c",)), 0, weights)
+    foot.update(targets, 0)
+    assert foot.task.priority == "soft"
+    assert foot.settled() and not foot.settled()
+    assert foot.task.priority == "hard"
+    np.testing.assert_array_equal(foot.task.T_world_frame, targets.soles[0, 0])
+    foot.update(targets, 1)
+    np.testing.assert_array_equal(foot.task.T_world_frame, targets.soles[0, 0])
+    assert foot.task.priority == "hard"
+    targets.contacts[0, 0] = False
+    foot.update(targets, 0)
+    assert not foot.settled() and foot.task.priority == "soft"
 
 
 def test_elbow_follows_the_shoulder_along_the_human_upper_arm() -> None:
