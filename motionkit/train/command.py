@@ -181,6 +181,24 @@ def add_commands(
         help="with a curriculum: evaluate in this stage's config (default: the stage of the "
         "run's latest checkpoint; the last stage is the recipe's own task)",
     )
+    evaluation.add_argument(
+        "--terrain",
+        metavar="KIND[:LEVEL]",
+        help="a terrain run: every robot on this tile (flat, rough, stones or pits; without a "
+        "level, the hardest) of a course training did not use (held-out course --seed, 0 "
+        "without it)",
+    )
+    evaluation.add_argument(
+        "--per-tile",
+        action="store_true",
+        help="a terrain run: evaluate every kind x level of a held-out course (--seed picks "
+        "it), --robots robots per row, one episode each, and print a table: waypoints, "
+        "success (the route reached, none missed, no fall), falls, airborne share on the way "
+        "and over holes, thrust per metre, speed",
+    )
+    evaluation.add_argument(
+        "--robots", type=int, default=512, help="robots per row of --per-tile (default 512)"
+    )
     robot_source(evaluation)
     evaluation.set_defaults(handler=_evaluate)
     curves = actions.add_parser(
@@ -331,6 +349,26 @@ def _evaluate(args: argparse.Namespace) -> int:
 
     robot = load_robot(args.urdf, args.spec)
     enable_compile_cache()
+    if args.per_tile:
+        from motionkit.train.terrain_eval import evaluate_tiles
+
+        others = [args.terrain, args.prior, args.air_share, args.prior_starts or None]
+        if any(value is not None for value in others) or args.noise:
+            raise TrainError(
+                "--per-tile evaluates every tile from standing without noise: drop "
+                "--terrain, --prior, --prior-starts, --air-share and --noise"
+            )
+
+        evaluate_tiles(
+            args.run,
+            robot,
+            robots=args.robots,
+            course=args.seed or 0,
+            checkpoint=args.checkpoint,
+            stage=args.stage,
+            progress=_print,
+        )
+        return 0
     figures = evaluate_run(
         args.run,
         robot,
@@ -341,6 +379,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         args.prior,
         args.air_share,
         args.stage,
+        args.terrain,
     )
     for name, value in figures.items():
         print(f"{name.removeprefix('eval_')} {value:.6g}")

@@ -24,6 +24,8 @@ JET_ACTIONS = ("rate", "thrust")  # what the ideal jet's action sets
 # "auto": MJX on JAX where a GPU is present, else MuJoCo; "jax": MJX on JAX (any device);
 # "warp": MJX on MuJoCo Warp (NVIDIA GPUs); "mujoco": MuJoCo C on the CPU's cores
 IMPLS = ("auto", "jax", "warp", "mujoco")
+TERRAIN_KINDS = ("flat", "rough", "stones", "pits")  # the tiles of the "terrain" scenario
+MIN_TILE = 4.0  # m: a tile holds its pad and a route 1 m from its edges
 
 
 @dataclass(frozen=True)
@@ -69,8 +71,23 @@ class EnvConfig:
     # the physics: "auto" (MJX on a GPU, MuJoCo on a CPU), "jax" (MJX), "warp" (MJX on MuJoCo
     # Warp, NVIDIA GPUs, `motionkit[warp]`) or "mujoco" (MuJoCo C, `mujoco.batch`, all cores)
     impl: str = "auto"
-    terrain_size: float = 16.0  # m, side of the square terrain ("terrain" scenario)
+    # The "terrain" scenario's course (`motionkit.train.env.courses`): a tile per level (rows,
+    # from easy to hard) and kind (columns), each tile_size metres square with a flat pad in the
+    # middle where episodes start; terrain_seed draws its bumps and stones (evaluations use
+    # seeds from courses.HELD_OUT on, which training should not)
+    terrain_levels: int = 10
+    terrain_kinds: tuple[str, ...] = ("flat", "rough", "stones", "pits")
+    tile_size: float = 8.0  # m: an episode of 7 s at 0.8 m/s stays within its tile
     terrain_seed: int = 0
+    terrain_size: float = 16.0  # m, unused (the course before the tiled layout; old configs load)
+    # the curriculum of levels: a robot whose episode reached route_waypoints waypoints without
+    # a fall moves up a level, one that fell moves down, one past the top goes to a random
+    # level; episodes start at levels 0 to max_start_level
+    terrain_curriculum: bool = True
+    max_start_level: int = 0
+    # the waypoints of an episode's route: the curriculum's goal, and a success in the
+    # evaluation per kind and level when reached in turn, none missed, without a fall
+    route_waypoints: int = 3
 
     @property
     def control_dt(self) -> float:
@@ -94,6 +111,16 @@ class EnvConfig:
         check(self, TrainError, "> 0", "thrust_rate_max", "waypoint_radius", "ground_height")
         check(self, TrainError, "in (0, 180]", "waypoint_angle")
         check(self, TrainError, "> 0", "terrain_size")
+        check(self, TrainError, ">= 1", "terrain_levels", "route_waypoints")
+        check(self, TrainError, ">= 0", "max_start_level")
+        check(self, TrainError, "non-empty", "terrain_kinds")
+        check(self, TrainError, "distinct", "terrain_kinds")
+        for kind in self.terrain_kinds:
+            if kind not in TERRAIN_KINDS:
+                expected = "kinds among " + ", ".join(map(repr, TERRAIN_KINDS))
+                raise refusal(TrainError, "terrain_kinds", expected, self.terrain_kinds)
+        if not self.tile_size >= MIN_TILE:
+            raise refusal(TrainError, "tile_size", f"at least {MIN_TILE} m", self.tile_size)
         check(self, TrainError, ">= 1", "substeps", "solver_iterations", "ls_iterations")
         check(self, TrainError, ">= 0", "timeout_factor", "timeout_extra", "air_curriculum")
         check(self, TrainError, ">= 0", "min_base_height", "joint_noise", "terrain_seed")

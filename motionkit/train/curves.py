@@ -1,6 +1,7 @@
 """A run's training curves as one PNG: the gait, waypoint, flight, discriminator and reward
 figures of OUT/train.csv (per iteration, with a running mean) and OUT/eval.csv (the
-deterministic evaluations, as points), over env-steps."""
+deterministic evaluations, as points), over env-steps; a run on a course adds a panel of the
+mean level of each kind of tile (the curriculum of levels)."""
 
 from __future__ import annotations
 
@@ -25,6 +26,8 @@ PANELS: dict[str, tuple[str, ...]] = {
     "discriminator accuracy": ("disc_policy_accuracy", "disc_expert_accuracy"),
     "rewards": ("task_reward", "style_reward"),
 }
+LEVELS = "terrain_level_"  # the prefix of a course's mean level per kind
+COLORS = ("C0", "C1", "C2", "C3", "C4", "C5")
 
 
 def read_table(path: Path) -> dict[str, np.ndarray]:
@@ -78,11 +81,18 @@ def draw_curves(run: Path, path: Path | None = None) -> Path:
     steps = train["env_steps"] / 1e6
     eval_steps = np.interp(evaluation.get("iteration", []), train["iteration"], steps)
     window = max(1, len(steps) // 50)
-    figure = Figure(figsize=(13, 9))
-    axes = figure.subplots(3, 3, sharex=True)
-    for ax, (title, columns) in zip(axes.flat, PANELS.items(), strict=True):
-        for color, column in zip(("C0", "C1"), columns, strict=False):
-            label = column.replace("disc_", "").replace("_", " ")
+    panels = dict(PANELS)
+    levels = tuple(name for name in train if name.startswith(LEVELS))
+    if levels:
+        panels["terrain level (mean per kind)"] = levels
+    rows = math.ceil(len(panels) / 3)
+    figure = Figure(figsize=(13, 3 * rows))
+    axes = figure.subplots(rows, 3, sharex=True, squeeze=False)
+    for ax in axes.flat[len(panels) :]:
+        ax.set_visible(False)
+    for ax, (title, columns) in zip(axes.flat, panels.items(), strict=False):
+        for color, column in zip(COLORS, columns, strict=False):
+            label = column.replace("disc_", "").replace(LEVELS, "").replace("_", " ")
             if column in train:
                 ax.plot(steps, train[column], color=color, alpha=0.2, linewidth=0.5)
                 ax.plot(steps, running_mean(train[column], window), color=color, label=label)
@@ -94,7 +104,7 @@ def draw_curves(run: Path, path: Path | None = None) -> Path:
         ax.grid(alpha=0.3)
         if len(columns) > 1:
             ax.legend(fontsize=8)
-    for ax in axes[-1]:
+    for ax in list(axes.flat[: len(panels)])[-3:]:  # the lowest panel of each column
         ax.set_xlabel("env-steps [M]")
     switches = " and curriculum stages (dotted)" if len(_stage_switches(train)) else ""
     figure.suptitle(

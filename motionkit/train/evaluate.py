@@ -1,6 +1,7 @@
 """Evaluation: deterministic rollouts of the policy from standing starts (or, to find out what a
 policy does elsewhere, from prior frames and with action noise), their figures (task, gait,
-flight), and the first episode of environment 0 as a motion clip (MCAP) for the viewer."""
+flight), and the first episode of environment 0 as a motion clip (MCAP) for the viewer; on a
+course, the clip records its terrain (`courses.clip_terrain`) for the viewer to draw."""
 
 from __future__ import annotations
 
@@ -14,11 +15,13 @@ import numpy as np
 from motionkit.dataset import Metadata, Source, Trajectory, write
 from motionkit.robot import Robot
 from motionkit.robot.geometry import angular_velocity
+from motionkit.train.env.courses import CourseLayout, clip_terrain
 from motionkit.train.env.rewards import style_reward
 from motionkit.train.figures import rollout_figures
 from motionkit.train.learner import Learner, Trainer
 
 KEPT = ("qpos", "target")  # kept for environment 0 alone: its clip is saved
+TERRAIN_MARGIN = 1.5  # m of a course's grid a clip records about its path and waypoints
 # besides every StepInfo field but these (observations and features: large, and unused here)
 DROPPED = ("final_obs", "chi_next")
 
@@ -30,6 +33,7 @@ def evaluate(
     chunks: int,
     prior_share: float = 0.0,
     noise: float = 0.0,
+    tile: tuple[int, int] | None = None,
 ) -> tuple[dict[str, float], dict[str, np.ndarray]]:
     """`chunks` rollouts of rollout_steps, their figures (`rollout_figures`, prefixed "eval_")
     and the arrays: every StepInfo field but DROPPED, the thrust, and KEPT for environment 0.
@@ -40,10 +44,12 @@ def evaluate(
         prior_share: the share of the starts in prior frames (0: all standing, the
             evaluation's own), kept when an ended episode starts again.
         noise: the action noise in units of the policy's std (0: deterministic).
+        tile: on a course, the tile (kind index, level) every robot starts on (None: each a
+            random tile of the course); the tiles hold still.
     """
     k_reset, k_run = jax.random.split(key)
     keys = jax.random.split(k_reset, trainer.config.ppo.num_envs)
-    state = trainer.reset_evaluation(keys, prior_share)
+    state = trainer.reset_evaluation(keys, prior_share, tile)
     infos, thrust, kept, logits = [], [], {name: [] for name in KEPT}, []
     for k in jax.random.split(k_run, chunks):
         state, batch = trainer.rollout(learner, state, k, jnp.array(noise))
@@ -59,7 +65,8 @@ def evaluate(
     arrays = {name: np.asarray(getattr(info, name)) for name in info.__dataclass_fields__}
     arrays |= {"thrust": np.concatenate(thrust)} | {k: np.concatenate(v) for k, v in kept.items()}
     hz = trainer.config.env.control_hz
-    figures = rollout_figures(info, arrays["thrust"], trainer.env.t_max, hz)
+    kinds = trainer.env.kinds
+    figures = rollout_figures(info, arrays["thrust"], trainer.env.t_max, hz, kinds, levels=False)
     metrics = {f"eval_{name}": float(value) for name, value in figures.items()}
     if logits:
         scale = trainer.config.amp.style_scale
@@ -69,12 +76,18 @@ def evaluate(
 
 
 def first_episode(
-    arrays: dict[str, np.ndarray], robot: Robot, control_hz: float, config: dict[str, Any]
+    arrays: dict[str, np.ndarray],
+    robot: Robot,
+    control_hz: float,
+    config: dict[str, Any],
+    course: CourseLayout | None = None,
 ) -> Trajectory | None:
     """The first episode of environment 0 as a clip (None if it lasted less than 2 steps);
-    the waypoints it pursued go into the metadata config as [time, x, y, z] rows. Its
-    velocities are those its positions imply (central differences at the control rate): the
-    simulator's, sampled once per control step, move within the step and disagree with them."""
+    the waypoints it pursued go into the metadata config as [time, x, y, z] rows, and on a
+    `course` (arrays "level" and "kind" of its tile) its terrain (`courses.clip_terrain`,
+    TERRAIN_MARGIN about its path and waypoints) as "terrain". Its velocities are those its
+    positions imply (central differences at the control rate): the simulator's, sampled once
+    per control step, move within the step and disagree with them."""
     done = arrays["done"][:, 0]
     end = int(np.argmax(done)) if done.any() else len(done)
     if end < 2:
@@ -88,6 +101,12 @@ def first_episode(
         [round(float(t - 1 / control_hz), 4), *map(float, p)]
         for t, p in zip(time[change], targets[change], strict=True)
     ]
+    extra: dict[str, Any] = {"waypoints": route}
+    if course is not None:
+        xy = np.concatenate([qpos[:, :2], targets[:, :2]])
+        level, kind = int(arrays["level"][0, 0]), int(arrays["kind"][0, 0])
+        low, high = xy.min(0) - TERRAIN_MARGIN, xy.max(0) + TERRAIN_MARGIN
+        extra["terrain"] = clip_terrain(course, level, kind, low, high)
     spec = robot.spec
     return Trajectory(
         time=time,
@@ -108,7 +127,7 @@ def first_episode(
             kind="rollout",
             generator="rollout",
             source=Source(clip=str(config.get("clip", "evaluation"))),
-            config={**config, "waypoints": route},
+            config={**config, **extra},
         ),
     )
 
@@ -119,7 +138,9 @@ def save_rollout(
     robot: Robot,
     control_hz: float,
     config: dict[str, Any],
+    course: CourseLayout | None = None,
 ) -> Path | None:
-    """Write the first episode of environment 0 as MCAP; None when it was too short."""
-    trajectory = first_episode(arrays, robot, control_hz, config)
+    """Write the first episode of environment 0 as MCAP (on a `course`, with its terrain);
+    None when it was too short."""
+    trajectory = first_episode(arrays, robot, control_hz, config, course)
     return None if trajectory is None else write(path, trajectory, robot)

@@ -10,6 +10,12 @@ over the
 episodes that ended in the rollout (their length, waypoints, falls); when none ended, over the
 episodes still running, as far as they got (a partial figure, so that a rollout shorter than
 an episode still reports one).
+
+On a course (`kinds`: its tile kinds) also: the share of episodes whose route was done (its
+waypoints reached in turn, none missed) without a fall, the airborne share over holes (pits
+and the gaps between stones), the thrust per metre moved (N s / m: the jets' impulse per metre
+the base moved), and with `levels` the mean level of each kind's environments
+(`terrain_level_KIND`: the curriculum's progress).
 """
 
 from __future__ import annotations
@@ -21,9 +27,15 @@ from motionkit.train.env import StepInfo
 
 
 def rollout_figures(
-    info: StepInfo, thrust: jax.Array, t_max: jax.Array, control_hz: float
+    info: StepInfo,
+    thrust: jax.Array,
+    t_max: jax.Array,
+    control_hz: float,
+    kinds: tuple[str, ...] = (),
+    levels: bool = True,
 ) -> dict[str, jax.Array]:
-    """The figures of time-major (T, N, ...) step records and thrusts (T, N, jets)."""
+    """The figures of time-major (T, N, ...) step records and thrusts (T, N, jets); on a
+    course of these tile `kinds` the terrain's too (the levels with `levels`)."""
     done = info.done
     ended = done.sum()
     last = jnp.zeros_like(done).at[-1].set(True)
@@ -45,7 +57,21 @@ def rollout_figures(
     # on the way to ground waypoints: each jet's mean thrust, each foot's share of steps down
     jets_to_ground = (thrust / t_max * ground[..., None]).sum((0, 1)) / jnp.maximum(ground.sum(), 1)
     stance = (info.feet_down * ground[..., None]).sum((0, 1)) / jnp.maximum(ground.sum(), 1)
-    return terms | {
+    course = {}
+    if kinds:
+        fell = done & ~info.truncated
+        course = {
+            "route_success_share": per_episode(info.route_done & ~fell),
+            "airborne_share_over_hole": share(
+                (info.airborne & info.over_hole).sum(), info.over_hole.sum()
+            ),
+            "thrust_per_metre": thrust.sum() / control_hz / jnp.maximum(info.moved.sum(), 1e-6),
+        }
+        if levels:
+            for k, name in enumerate(kinds):
+                mine = info.kind == k
+                course[f"terrain_level_{name}"] = share((info.level * mine).sum(), mine.sum())
+    figures = terms | {
         "task_reward": info.task_reward.mean(),
         "approach_speed": info.approach_speed.mean(),
         "single_support_share": (info.feet_down.sum(-1) == 1).mean(),
@@ -70,3 +96,4 @@ def rollout_figures(
         "falls_per_episode": falls / episodes,
         "prior_reset_share": share(info.prior_reset.sum(), ended),
     }
+    return figures | course

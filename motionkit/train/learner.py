@@ -174,19 +174,28 @@ class Trainer:
         self._stack = jax.jit(self._stack_fn)
         self.rollout = self._rollout_mujoco
 
-    def reset_evaluation(self, keys: jax.Array, prior_share: float = 0.0) -> EnvState:
+    def reset_evaluation(
+        self, keys: jax.Array, prior_share: float = 0.0, tile: tuple[int, int] | None = None
+    ) -> EnvState:
         """The starts of an evaluation, one per key: standing, or in a prior frame at
-        `prior_share`; with the task's share of air waypoints."""
-        air = self.env.config.air_probability
-        if self.env.config.impl == "mujoco":
-            return self.physics[1].reset(keys, air, prior_share)
+        `prior_share`; with the task's share of air waypoints. On a course every robot starts
+        on `tile` (kind index, level), or on a random tile of the whole course (None); the
+        tiles hold still (no curriculum)."""
+        env, air = self.env, self.env.config.air_probability
+        tiles = None
+        if env.course is not None:
+            pick = lambda key: env.evaluation_tile(jax.random.fold_in(key, 2), tile)  # noqa: E731
+            tiles = jax.vmap(pick)(keys)
+        if env.config.impl == "mujoco":
+            return self.physics[1].reset(keys, air, prior_share, tiles)
         if prior_share not in self._evaluation_resets:
-            starts = lambda key: self.env.reset(key, air, prior_share)  # noqa: E731
+            starts = lambda pair: env.reset(pair[0], air, prior_share, pair[1])  # noqa: E731
             self._evaluation_resets[prior_share] = self._split_reset(starts)
-        return self._evaluation_resets[prior_share](keys)
+        return self._evaluation_resets[prior_share]((keys, tiles))
 
     def _split_reset(self, reset: Any) -> Any:
-        """`reset` of one environment as a jitted batch reset of keys split over the mesh."""
+        """`reset` of one environment as a jitted batch reset of keys (or of a pytree of
+        per-environment inputs) split over the mesh."""
         batch = jax.shard_map(
             jax.vmap(reset), mesh=self.mesh, in_specs=P(AXIS), out_specs=P(AXIS), check_vma=False
         )
@@ -473,7 +482,7 @@ class Trainer:
         )
         metrics |= {name: value.mean() for name, value in parts.items()}
         metrics |= rollout_figures(
-            batch.info, batch.thrust, self.env.t_max, self.env.config.control_hz
+            batch.info, batch.thrust, self.env.t_max, self.env.config.control_hz, self.env.kinds
         )
         metrics |= {"style_reward": style.mean(), "reward": reward.mean(), "learning_rate": lr}
         return learner, buffer, metrics

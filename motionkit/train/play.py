@@ -11,7 +11,14 @@ Waypoints are fed as in training: the current one relative to the base (the obse
 block), reached when the base comes within `waypoint_radius`; the next one follows. Unlike in
 training a waypoint has no deadline: it stays until reached. The run ends after the last
 waypoint (not with a watcher: a live viewer may place more), at a fall (the base lower than
-`min_base_height` above the terrain, or a non-finite state) or after `seconds`.
+`min_base_height` above the surface, a pit read as its rim, or a non-finite state) or after
+`seconds`.
+
+On a terrain (`terrain="KIND[:LEVEL]"`, a policy of the terrain scenario) the robot plays on a
+course training did not use (`courses.held_out`, numbered by `seed`): it starts on the pad of
+that tile (without a level, the hardest), waypoints given are relative to the tile's centre in
+x and y, a random route runs across the tile as training's routes do, and the clip records the
+terrain under the robot for `motionkit view` and `motionkit render`.
 """
 
 from __future__ import annotations
@@ -31,7 +38,7 @@ from motionkit.core.errors import TrainError
 from motionkit.dataset import write
 from motionkit.files.outputs import check_out, claim_out
 from motionkit.robot import Robot
-from motionkit.train.env import Env, waypoints
+from motionkit.train.env import Env, courses, levels, waypoints
 from motionkit.train.env import terrain as terrain_lib
 from motionkit.train.env.mujoco import BatchPhysics, Kinematics
 from motionkit.train.evaluate import first_episode
@@ -42,11 +49,13 @@ FLYING_SHARE = 0.5  # a way with more steps airborne than this was flown
 
 class Player:
     """One robot of `env` on the training's MuJoCo backend (`BatchPhysics` of one
-    environment, one thread) at the environment's control rate. `data` holds live views of
-    its positions and velocities (`data.qpos`, `data.qvel`)."""
+    environment, one thread) at the environment's control rate, starting at `spawn` (x, y)
+    [m] on the ground (None: the keyframe's place). `data` holds live views of its positions
+    and velocities (`data.qpos`, `data.qvel`)."""
 
-    def __init__(self, env: Env) -> None:
+    def __init__(self, env: Env, spawn: tuple[float, float] | None = None) -> None:
         self.env = env
+        self.spawn = spawn
         self.model = env.mj_model
         self.physics = BatchPhysics(env, 1, threads=1)
         fields = self.physics.fields
@@ -57,7 +66,7 @@ class Player:
         ) -> tuple[jax.Array, jax.Array, jax.Array]:
             data = jax.tree.map(lambda x: x[0], data)
             base = data.qpos[:3]
-            lift = base[2] - terrain_lib.height_at(env.terrain, base[:2])
+            lift = base[2] - terrain_lib.surface_at(env.terrain, base[:2])
             return env.observe(data, thrust, target), env.feet_down(data), lift
 
         def control(jet: Any, thrust: jax.Array, action: jax.Array) -> tuple[Any, ...]:
@@ -70,10 +79,14 @@ class Player:
 
     def standing(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(qpos, qvel, thrust) of the standing pose: the keyframe at the environment's standing
-        posture (no joint noise), at rest, the jets at the low end of initial_thrust."""
+        posture (no joint noise) moved to the spawn point on the ground, at rest, the jets at
+        the low end of initial_thrust."""
         env = self.env
         qpos = self.model.key("stand").qpos.copy()
         qpos[7:] = np.asarray(env.default_q)
+        if self.spawn is not None:
+            ground = terrain_lib.height_at(env.terrain, jnp.asarray(self.spawn, jnp.float32))
+            qpos[:3] += [*self.spawn, float(ground)]
         thrust = np.minimum(env.config.initial_thrust[0], np.asarray(env.t_max))
         return qpos, np.zeros(self.model.nv), thrust
 
@@ -151,6 +164,7 @@ class Played:
     falls: int = 0
     wall_seconds: float = 0.0
     compile_seconds: float = 0.0
+    tile: tuple[int, int] | None = None  # (kind index, level) of the course's tile played on
 
     @property
     def frames(self) -> int:
@@ -173,7 +187,10 @@ class Played:
             "feet_down": self.feet_down,
         }
         out = {name: np.stack(value)[:, None] for name, value in rows.items()}
-        return out | {"done": np.zeros((self.frames, 1), bool)}
+        out["done"] = np.zeros((self.frames, 1), bool)
+        if self.tile is not None:
+            out["kind"], out["level"] = (np.full((self.frames, 1), v) for v in self.tile)
+        return out
 
 
 FrameWatcher = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], Sequence[np.ndarray]]
@@ -251,15 +268,18 @@ def roll_out(
     return played
 
 
-def random_route(env: Env, count: int, seed: int, start: np.ndarray) -> list[np.ndarray]:
+def random_route(
+    env: Env, count: int, seed: int, start: np.ndarray, tile: levels.Tile | None = None
+) -> list[np.ndarray]:
     """`count` waypoints drawn as the environment draws them (ground and air, air_probability
-    of them in the air), each following the one before, the first following `start`."""
+    of them in the air), each following the one before, the first following `start`; on a
+    course, across `tile` (`Env.next_waypoint`)."""
     previous = jnp.asarray(start, jnp.float32)
+    tile = env.flat_tile if tile is None else tile
+    share = jnp.asarray(env.config.air_probability, jnp.float32)
     route = []
     for key in jax.random.split(jax.random.key(seed), count):
-        previous = waypoints.next_waypoint(
-            key, previous, env.config, env.terrain, env.route_bound, env.config.air_probability
-        )
+        previous = env.next_waypoint(key, previous, share, jnp.asarray(0.0), tile)
         route.append(np.asarray(previous, float))
     return route
 
@@ -284,26 +304,57 @@ def parse_waypoints(text: str) -> list[np.ndarray]:
     return points
 
 
-def write_clip(path: Path, played: Played, robot: Robot, meta: dict[str, Any]) -> Path:
-    """The rollout as a motion clip (the evaluation rollouts' format, its waypoints in the
-    metadata); a TrainError when it is shorter than two frames."""
+def write_clip(
+    path: Path,
+    played: Played,
+    robot: Robot,
+    meta: dict[str, Any],
+    course: courses.CourseLayout | None = None,
+) -> Path:
+    """The rollout as a motion clip (the evaluation rollouts' format, its waypoints and, on a
+    `course`, its terrain in the metadata); a TrainError when it is shorter than two frames."""
     trajectory = None
     if played.frames >= 2:
-        trajectory = first_episode(played.arrays(), robot, played.control_hz, meta)
+        arrays = played.arrays()
+        trajectory = first_episode(arrays, robot, played.control_hz, meta, course)
     if trajectory is None:
         raise TrainError(f"the rollout lasted {played.frames} step(s) ({played.end}): no clip")
     return write(path, trajectory, robot)
 
 
 def route_for(
-    env: Env, start: np.ndarray, given: Sequence[np.ndarray] | None, count: int, seed: int
+    env: Env,
+    start: np.ndarray,
+    given: Sequence[np.ndarray] | None,
+    count: int,
+    seed: int,
+    tile: levels.Tile | None = None,
 ) -> list[np.ndarray]:
-    """The waypoints given, or a random route of `count` from `start` (seeded)."""
+    """The waypoints given (on a course's `tile`, x and y from its centre), or a random route
+    of `count` from `start` (seeded, across the tile)."""
     if given is not None:
-        return [np.asarray(p, float) for p in given]
+        shift = np.zeros(3)
+        if tile is not None:
+            shift[:2] = np.asarray(env.tile_centre(tile))
+        return [np.asarray(p, float) + shift for p in given]
     if count < 1:
         raise TrainError(f"--random-route {count}: at least 1 waypoint")
-    return random_route(env, count, seed, start)
+    return random_route(env, count, seed, start, tile)
+
+
+def terrain_env(policy: Policy, robot: Robot, terrain: str, seed: int) -> tuple[Env, levels.Tile]:
+    """The policy's environment on held-out course `seed` and the tile of 'KIND[:LEVEL]'; a
+    TrainError for a policy of flat ground or a bad tile."""
+    config = policy.config.env
+    if config.scenario != "terrain":
+        raise TrainError(
+            f"--terrain: {policy.source} was trained on {config.scenario} ground and sees no "
+            "height map; a terrain needs a policy of the terrain scenario"
+        )
+    layout = courses.held_out(courses.CourseLayout.of(config), seed)
+    kind, level = courses.parse_tile(terrain, layout)
+    env = policy_env(policy, robot, terrain_seed=layout.seed)
+    return env, levels.fixed_tile(level, kind)
 
 
 def play(
@@ -315,7 +366,8 @@ def play(
     count: int = 4,
     seed: int = 0,
     seconds: float = 20.0,
-    live: Callable[[Env, list[np.ndarray]], FrameWatcher] | None = None,
+    live: Callable[[Env, list[np.ndarray], np.ndarray], FrameWatcher] | None = None,
+    terrain: str | None = None,
 ) -> tuple[Played, list[np.ndarray]]:
     """Roll `policy` out for `robot` from the standing pose toward waypoints, into a clip.
 
@@ -331,8 +383,11 @@ def play(
         count: the number of waypoints of a random route.
         seed: the seed a random route is drawn with.
         seconds: the longest the rollout lasts [s].
-        live: `live(env, route)` makes a watcher (a viewer) that sees each step in real time
-            and may add waypoints; None: none, and no real-time pacing.
+        live: `live(env, route, start)` makes a watcher (a viewer) that sees each step in
+            real time and may add waypoints (`start`: the base's first position); None: none,
+            and no real-time pacing.
+        terrain: 'KIND[:LEVEL]': play on that tile of the held-out course `seed` (a policy of
+            the terrain scenario); None: the policy's own ground.
 
     Returns:
         What the rollout did (frames, the ways to the waypoints, how it ended, timings) and
@@ -346,11 +401,17 @@ def play(
     if not (np.isfinite(seconds) and seconds > 0):
         raise TrainError(f"--seconds {seconds}: expected a duration > 0")
     check_out(path.parent, [path.name], TrainError)
-    env = policy_env(policy, robot)
-    player = Player(env)
+    tile = None
+    if terrain is None:
+        env = policy_env(policy, robot)
+        player = Player(env)
+    else:
+        env, tile = terrain_env(policy, robot, terrain, seed)
+        x, y = np.asarray(env.tile_centre(tile), float)
+        player = Player(env, (x, y))
     drawn = route is None
-    route = route_for(env, player.data.qpos[:3].copy(), route, count, seed)
-    watch = None if live is None else live(env, route)
+    route = route_for(env, player.data.qpos[:3].copy(), route, count, seed, tile)
+    watch = None if live is None else live(env, route, player.data.qpos[:3].copy())
     played = roll_out(
         player, policy.act_fn(), route, seconds, watch=watch, real_time=watch is not None
     )
@@ -361,8 +422,11 @@ def play(
         "seed": seed if drawn else None,
         "end": played.end,
     }
+    if tile is not None:
+        played.tile = (int(tile.kind), int(tile.level))
+        meta["seed"] = seed
     claim_out(path.parent, [path.name], TrainError)
-    write_clip(path, played, robot, meta)
+    write_clip(path, played, robot, meta, env.course)
     return played, route
 
 

@@ -36,7 +36,15 @@ seconds, compilation not counted).
 
   motionkit play --policy runs/tiny --waypoints "1,0,0.6 1,1,1.2" --out plays
   motionkit play --policy policies/walk_fly --random-route 6 --seed 3 --out plays
-  motionkit play --policy runs/tiny --view --seconds 60 --out plays   # place waypoints by clicks"""
+  motionkit play --policy runs/tiny --view --seconds 60 --out plays   # place waypoints by clicks
+
+On a terrain (--terrain KIND[:LEVEL], a policy of the terrain scenario): the robot starts on
+the pad of that tile (flat, rough, stones or pits; without a level, the hardest) of a course
+training did not use (numbered by --seed), --waypoints are x, y from the tile's centre, a
+random route crosses the tile as training's do, and the clip records the terrain under the
+robot (drawn by `motionkit view` and `motionkit render`).
+
+  motionkit play --policy runs/terrain --terrain pits:9 --random-route 3 --seed 2 --out plays"""
 
 
 def add_commands(
@@ -63,7 +71,14 @@ def add_commands(
         metavar="N",
         help="without --waypoints: N waypoints drawn as training draws them (default 4)",
     )
-    parser.add_argument("--seed", type=int, default=0, help="of the random route (default 0)")
+    parser.add_argument(
+        "--seed", type=int, default=0, help="of the random route and the course (default 0)"
+    )
+    parser.add_argument(
+        "--terrain",
+        metavar="KIND[:LEVEL]",
+        help="play on this tile of a held-out course (a terrain policy; no level: the hardest)",
+    )
     parser.add_argument(
         "--seconds", type=float, default=20.0, help="longest rollout [s] (default 20)"
     )
@@ -101,12 +116,12 @@ def _play(args: argparse.Namespace) -> int:
     robot = load_robot(args.urdf, args.spec)
     views: list[Any] = []
 
-    def live(env: Any, route: list) -> Any:
+    def live(env: Any, route: list, start: Any) -> Any:
         from motionkit.viewer.live import LiveView
 
-        view = LiveView(
-            robot, route, height=env.config.ground_height, start=(0, 0, 0), port=args.port
-        )
+        x, y = float(start[0]), float(start[1])
+        height = env.config.ground_height
+        view = LiveView(robot, route, height=height, start=(x, y, 0), port=args.port)
         views.append(view)
         print(f"motionkit play: live at {view.url} (Ctrl-C to stop)", flush=True)
         return view.watch
@@ -122,6 +137,7 @@ def _play(args: argparse.Namespace) -> int:
             seed=args.seed,
             seconds=args.seconds,
             live=live if args.view else None,
+            terrain=args.terrain,
         )
     finally:
         for view in views:

@@ -222,20 +222,19 @@ def _norm(state: dict[str, Any]) -> RunningNorm:
 
 
 # -- the environment a policy acts in -----------------------------------------------------------
-def cpu_env(config: TrainConfig, robot: Robot) -> Env:
-    """The environment of `config` for `robot` on the MuJoCo backend, for this machine's CPU
-    (a GPU run's impl and devices set aside)."""
+def cpu_env(config: TrainConfig, robot: Robot, **changes: Any) -> Env:
+    """The environment of `config` (its [env] keys `changes` changed) for `robot` on the
+    MuJoCo backend, for this machine's CPU (a GPU run's impl and devices set aside)."""
     from motionkit.train.runner import make_env
 
-    config = replace(
-        config, env=replace(config.env, impl="mujoco"), run=replace(config.run, devices=1)
-    )
+    env = replace(config.env, **changes, impl="mujoco")
+    config = replace(config, env=env, run=replace(config.run, devices=1))
     return make_env(config, robot)
 
 
-def policy_env(policy: Policy, robot: Robot) -> Env:
-    """`cpu_env` of the policy's config; a TrainError when the policy was made for another
-    robot layout."""
+def policy_env(policy: Policy, robot: Robot, **changes: Any) -> Env:
+    """`cpu_env` of the policy's config (its [env] keys `changes` changed); a TrainError when
+    the policy was made for another robot layout."""
     layout = policy.layout
     if layout:
         joints, jets = list(robot.joint_names), [jet.name for jet in robot.spec.jets]
@@ -245,7 +244,7 @@ def policy_env(policy: Policy, robot: Robot) -> Env:
                 f"({len(layout.get('joints', []))} joints, {len(layout.get('jets', []))} jets), "
                 f"not for {robot.name} ({len(joints)} joints, {len(jets)} jets)"
             )
-    env = cpu_env(policy.config, robot)
+    env = cpu_env(policy.config, robot, **changes)
     if (policy.obs_size, policy.action_size) != (env.obs_size, env.action_size):
         raise TrainError(
             f"{policy.source}: the policy observes {policy.obs_size} values and makes "

@@ -346,6 +346,7 @@ def run_evaluation(
         robot,
         config.env.control_hz,
         meta | {"priors": sorted(config.priors)},
+        trainer.env.course,
     )
     return metrics
 
@@ -360,6 +361,7 @@ def evaluate_run(
     prior: str | None = None,
     air_share: float | None = None,
     stage: str | None = None,
+    terrain: str | None = None,
 ) -> dict[str, float]:
     """A run's latest checkpoint in the evaluation of its config, from other starts or with
     action noise: a way to find out where a policy fails. A run with a curriculum is
@@ -380,6 +382,9 @@ def evaluate_run(
         air_share: the chance of an air waypoint instead of the config's air_probability.
         stage: evaluate in this stage of the config's curriculum (the last: the recipe's
             own task).
+        terrain: 'KIND[:LEVEL]' (a run of the "terrain" scenario): every robot on that tile
+            (without a level, the hardest) of a course that training did not use (the course
+            of seed courses.HELD_OUT + `seed`, 0 without one).
 
     Returns:
         The figures ("eval_" names). With the defaults, those of the run's own evaluation at
@@ -405,13 +410,34 @@ def evaluate_run(
         if not 0.0 <= air_share <= 1.0:
             raise TrainError(f"air share {air_share} must be in [0, 1]")
         config = replace(config, env=replace(config.env, air_probability=air_share))
+    tile = None
+    if terrain is not None:
+        config, tile = held_out_tile(run, config, terrain, seed or 0)
     config, trainer, _ = build_trainer(config, robot, with_priors=prior_share > 0)
     template, _ = trainer.init(config.run.seed)
     learner = trainer.replicate(load_checkpoint(checkpoint, template)[0])
     seed = config.run.seed if seed is None else seed
     key = evaluation_key(seed, int(learner.iteration))
     chunks = config.run.eval_rollouts
-    return evaluate(trainer, learner, key, chunks, prior_share, noise)[0]
+    return evaluate(trainer, learner, key, chunks, prior_share, noise, tile)[0]
+
+
+def held_out_tile(
+    run: Path, config: TrainConfig, terrain: str, number: int
+) -> tuple[TrainConfig, tuple[int, int]]:
+    """The config on the held-out course `number` (`courses.held_out`) and the tile (kind
+    index, level) of 'KIND[:LEVEL]'; a TrainError for a run on flat ground or a bad tile."""
+    from motionkit.train.env.courses import CourseLayout, held_out, parse_tile
+
+    if config.env.scenario != "terrain":
+        raise TrainError(
+            f"{run}: --terrain needs a run of the terrain scenario (its policy sees a height "
+            f"map); this one trained on {config.env.scenario} ground"
+        )
+    layout = CourseLayout.of(config.env)
+    tile = parse_tile(terrain, layout)
+    env = replace(config.env, terrain_seed=held_out(layout, number).seed)
+    return replace(config, env=env), tile
 
 
 def _evaluated_stage(run: Path, config: TrainConfig, stage: str | None) -> TrainConfig:

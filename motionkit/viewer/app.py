@@ -36,6 +36,7 @@ from motionkit.viewer.sources import (
     load_motion,
     waypoints,
 )
+from motionkit.viewer.terrain import TerrainPatch, clip_terrain, grid_mesh
 
 HOST = "127.0.0.1"
 MAX_TICK_RATE = 120.0  # Hz
@@ -45,6 +46,7 @@ PLOT_POINTS = 1500  # samples per plotted series
 SPEEDS = ("0.1", "0.25", "0.5", "1", "2", "4")
 CAMERA_OFFSET = np.array([2.0, -2.0, 0.6])  # m, from the base to the initial camera
 CAMERA_FOV = np.radians(50.0)  # vertical field of view of the initial camera
+TERRAIN_COLOR = (150, 146, 132)  # of a clip's terrain (a course's heights)
 
 
 class ViewerApp:
@@ -83,6 +85,7 @@ class ViewerApp:
         self.scene = RobotScene(self.server, robot, meshes)
         self._clip_gui: list[viser.GuiInputHandle | viser.GuiMarkdownHandle] = []
         self._waypoints: list[viser.SceneNodeHandle] = []
+        self._terrain: viser.SceneNodeHandle | None = None
         self.playback: Playback | None = None
         self.rate = 0.0  # Hz, of the clip shown
         self.forces: Array | None = None
@@ -186,6 +189,7 @@ class ViewerApp:
         with gui.add_folder("Show"):
             self.show_robot = gui.add_checkbox("robot", True)
             self.show_waypoints = gui.add_checkbox("waypoints", True)
+            self.show_terrain = gui.add_checkbox("terrain", True)
             self.show_skeleton = gui.add_checkbox("human skeleton", True)
             self.show_forces = gui.add_checkbox("contact forces", True)
         self.plots = gui.add_folder("Plots", expand_by_default=False)
@@ -223,6 +227,11 @@ class ViewerApp:
         def _(_: viser.GuiEvent) -> None:
             for handle in self._waypoints:
                 handle.visible = self.show_waypoints.value
+
+        @self.show_terrain.on_update
+        def _(_: viser.GuiEvent) -> None:
+            if self._terrain is not None:
+                self._terrain.visible = self.show_terrain.value
 
         @self.show_skeleton.on_update
         def _(_: viser.GuiEvent) -> None:
@@ -263,6 +272,7 @@ class ViewerApp:
         self._description = describe(clip, warning)
         self._describe_overlays()
         self._draw_waypoints(waypoints(clip))
+        self._draw_terrain(clip_terrain(clip))
         self._draw_plots(motion)
         self._show(0)
 
@@ -322,6 +332,19 @@ class ViewerApp:
                     "/overlays/waypoint_path", segments, color, thickness=0.01, visible=visible
                 )
             )
+
+    def _draw_terrain(self, patch: TerrainPatch | None) -> None:
+        """The clip's terrain as a mesh of its height grid (none without one)."""
+        if self._terrain is not None:
+            self._terrain.remove()
+            self._terrain = None
+        if patch is None:
+            return
+        vertices, faces = grid_mesh(patch)
+        self._terrain = self.server.scene.add_mesh_simple(
+            "/terrain", vertices, faces, color=TERRAIN_COLOR, flat_shading=True,
+            side="double", visible=self.show_terrain.value,
+        )  # fmt: skip
 
     def _draw_plots(self, motion: Trajectory) -> None:
         self.plots.remove()

@@ -71,8 +71,8 @@ class LiveView:
         gui = server.gui
         gui.add_markdown("Click on the floor to place the next waypoint at this height.")
         low, high = HEIGHT_RANGE
-        start = min(max(height, low), high)
-        self.height = gui.add_slider("waypoint height [m]", low, high, 0.05, start)
+        initial = min(max(height, low), high)
+        self.height = gui.add_slider("waypoint height [m]", low, high, 0.05, initial)
         self.status = gui.add_markdown("")
         self._points = server.scene.add_point_cloud(
             "/overlays/waypoints", np.zeros((1, 3), np.float32), WAYPOINT_COLOR,

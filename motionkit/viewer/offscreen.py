@@ -7,7 +7,9 @@ boxes, collisions only, are hidden); a picture sets qpos and runs the kinematics
 the lights) only. The camera follows the base from a fixed direction; the floor is a CHECKER m
 checker lit by a spotlight that follows the base (its shadows stay with the robot); each jet
 draws a flame out of its nozzle along the exhaust, THRUST_LENGTH x T/T_max long like the
-browser viewer's arrows; waypoints are blue balls on thin poles down to the floor.
+browser viewer's arrows; waypoints are blue balls on thin poles down to the floor. A clip's
+terrain (`motionkit.viewer.terrain`) is a heightfield geom of its grid, the checker floor moved
+below its lowest point when it holds pits.
 
 OpenGL: MUJOCO_GL picks the backend and mujoco reads it when first imported; `default_gl()` sets
 it to egl on Linux when it is unset (Mesa's EGL renders without a display, OSMesa often does
@@ -33,6 +35,7 @@ from motionkit.robot import Robot
 from motionkit.robot.geometry import Array
 from motionkit.viewer.meshes import LinkMesh
 from motionkit.viewer.posing import quat_to_matrix
+from motionkit.viewer.terrain import TerrainPatch, hfield_data
 
 if TYPE_CHECKING:
     import mujoco
@@ -50,6 +53,8 @@ POLE_RADIUS = 0.006  # m, of the line from a waypoint down to the floor
 CHECKER = 0.5  # m, side of a floor square
 ROBOT_GROUP = 1  # geom group of the visual meshes
 HIDDEN_GROUP = 3  # geom group of the sole boxes: not drawn (mjvOption shows groups 0-2)
+TERRAIN_RGBA = (0.62, 0.6, 0.54, 1.0)
+TERRAIN_BASE = 0.05  # m of heightfield drawn below the terrain's lowest point
 GL_HELP = (
     "without a display install Mesa's EGL (Debian/Ubuntu: apt-get install libegl1 "
     "libgl1-mesa-dri) and leave MUJOCO_GL unset or egl; with a display, MUJOCO_GL=glfw"
@@ -131,10 +136,16 @@ def no_gl(backend: str, exc: BaseException, notes: list[str] | None = None) -> V
 
 
 # -- the model ------------------------------------------------------------------------------------
-def visual_model(robot: Robot, meshes: list[LinkMesh], width: int, height: int) -> mujoco.MjModel:
+def visual_model(
+    robot: Robot,
+    meshes: list[LinkMesh],
+    width: int,
+    height: int,
+    terrain: TerrainPatch | None = None,
+) -> mujoco.MjModel:
     """The robot's MJCF with its visual meshes (group ROBOT_GROUP, never colliding), the sole
-    boxes hidden, a checker floor, a sky, a spotlight on the base, and an offscreen buffer of
-    width x height pixels."""
+    boxes hidden, a checker floor, a sky, a spotlight on the base, a clip's `terrain`, and an
+    offscreen buffer of width x height pixels."""
     import mujoco
 
     spec = mujoco.MjSpec.from_string(robot.mjcf_text)
@@ -143,6 +154,8 @@ def visual_model(robot: Robot, meshes: list[LinkMesh], width: int, height: int) 
             geom.group = HIDDEN_GROUP
     _add_meshes(spec, meshes)
     _dress_scene(spec, robot.spec.root)
+    if terrain is not None:
+        _add_terrain(spec, terrain)
     spec.visual.global_.offwidth, spec.visual.global_.offheight = width, height
     try:
         return spec.compile()
@@ -178,6 +191,32 @@ def _add_meshes(spec: mujoco.MjSpec, meshes: list[LinkMesh]) -> None:
             group=ROBOT_GROUP,
             mass=0.0,
         )
+
+
+def _add_terrain(spec: mujoco.MjSpec, patch: TerrainPatch) -> None:
+    """The terrain as a heightfield geom that never collides; the floor plane below its lowest
+    point when that lies below the floor (a pit, a gap between stones)."""
+    import mujoco
+
+    data, low, span = hfield_data(patch)
+    width, depth = patch.size
+    field = spec.add_hfield(name="terrain")
+    field.size = [width / 2, depth / 2, span, TERRAIN_BASE]
+    field.nrow, field.ncol = data.shape
+    field.userdata = data.ravel().tolist()
+    spec.worldbody.add_geom(
+        name="terrain",
+        type=mujoco.mjtGeom.mjGEOM_HFIELD,
+        hfieldname="terrain",
+        pos=[*patch.centre, low],
+        rgba=list(TERRAIN_RGBA),
+        contype=0,
+        conaffinity=0,
+    )
+    if low < 0:
+        for geom in spec.worldbody.geoms:
+            if geom.type == mujoco.mjtGeom.mjGEOM_PLANE:
+                geom.pos = [geom.pos[0], geom.pos[1], low - TERRAIN_BASE]
 
 
 def _dress_scene(spec: mujoco.MjSpec, root: str) -> None:
@@ -245,10 +284,11 @@ class ClipRenderer:
         config: RenderConfig,
         meshes: list[LinkMesh],
         waypoints: Array | None = None,
+        terrain: TerrainPatch | None = None,
     ) -> None:
         mujoco = import_mujoco()
         self.config = config
-        self.model = visual_model(robot, meshes, config.width, config.height)
+        self.model = visual_model(robot, meshes, config.width, config.height, terrain)
         self.data = mujoco.MjData(self.model)
         self.jet_sites = [self.model.site(jet.frame).id for jet in robot.spec.jets]
         self.t_max = np.array([jet.t_max for jet in robot.spec.jets])

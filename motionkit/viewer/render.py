@@ -5,7 +5,8 @@
 
 One picture every 1/fps s of clip time, each showing the clip's last frame at or before it:
 the robot with its meshes on a checker floor, the camera following its base, flames on the
-firing jets and the clip's waypoints (`offscreen.ClipRenderer`, MuJoCo's offscreen renderer);
+firing jets, the clip's waypoints and its terrain, if it records one (`offscreen.ClipRenderer`,
+MuJoCo's offscreen renderer);
 the file is written whole or not at all (`animation`). Importing this module imports neither
 mujoco nor Pillow.
 """
@@ -30,6 +31,7 @@ from motionkit.viewer.animation import animation_writer
 from motionkit.viewer.meshes import robot_meshes
 from motionkit.viewer.offscreen import ClipRenderer
 from motionkit.viewer.sources import ClipInfo, check_robot, load_motion, resolve_clips, waypoints
+from motionkit.viewer.terrain import clip_terrain
 
 MAX_FPS = 100.0  # pictures per second
 MAX_SIZE = 4096  # pixels, of the width and of the height
@@ -115,7 +117,7 @@ def render_clip(
     meshes, problems = robot_meshes(robot)
     notes = tuple(n for n in (warning, *(f"mesh not drawn: {p}" for p in problems)) if n)
     spent = [0.0]
-    with ClipRenderer(robot, config, meshes, waypoints(info)) as renderer:
+    with ClipRenderer(robot, config, meshes, waypoints(info), clip_terrain(info)) as renderer:
         renderer.aim(motion.base_orientation[shown], robot.spec.forward)
         pictures = (renderer.draw(motion, int(i), info.name) for i in shown)
         write(_timed(pictures, len(shown), spent, progress), len(shown))

@@ -52,6 +52,20 @@ def test_curves_are_drawn_by_the_library_and_the_command(tmp_path: Path, capsys)
     assert other.read_bytes()[:8] == PNG and str(other) in capsys.readouterr().out
 
 
+def test_a_course_run_gets_a_panel_of_levels_per_kind(tmp_path: Path) -> None:
+    """Nine panels fill 3 rows; a run with terrain_level_KIND columns draws a fourth row
+    (13 x 12 inches at 90 dpi instead of 13 x 9)."""
+    write_run(tmp_path)
+    flat_height = int.from_bytes(draw_curves(tmp_path).read_bytes()[20:24], "big")
+    with (tmp_path / "train.csv").open() as stream:
+        lines = stream.read().splitlines()
+    rows = [lines[0] + ",terrain_level_rough,terrain_level_pits"]
+    rows += [f"{line},{0.1 * k:.1f},{0.05 * k:.2f}" for k, line in enumerate(lines[1:])]
+    (tmp_path / "train.csv").write_text("\n".join(rows) + "\n")
+    height = int.from_bytes(draw_curves(tmp_path).read_bytes()[20:24], "big")
+    assert (flat_height, height) == (9 * 90, 12 * 90)
+
+
 def test_a_folder_without_a_training_log_is_refused(tmp_path: Path) -> None:
     with pytest.raises(TrainError, match=r"no train\.csv"):
         draw_curves(tmp_path)

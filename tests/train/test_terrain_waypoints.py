@@ -9,7 +9,7 @@ import pytest
 
 from motionkit.core.errors import TrainError
 from motionkit.train.config import EnvConfig
-from motionkit.train.env import terrain, waypoints
+from motionkit.train.env import courses, terrain, waypoints
 
 
 def test_height_at_is_bilinear_with_rows_along_y() -> None:
@@ -20,29 +20,45 @@ def test_height_at_is_bilinear_with_rows_along_y() -> None:
     )
 
 
-def test_mixed_terrain_has_every_kind_and_flat_spawn_pads() -> None:
-    ground = terrain.mixed(16.0, seed=0)
+def test_a_course_has_a_row_per_level_a_column_per_kind_and_flat_pads() -> None:
+    """The tiled course (which replaced the 4 x 4 mix of 4 m tiles): 2 levels x 4 kinds of 8 m
+    tiles, 0.1 m cells; every tile's pad is flat at the datum, and the hard row is harder."""
+    layout = courses.CourseLayout(2, ("flat", "rough", "stones", "pits"), 8.0, seed=0)
+    ground = courses.build(layout)
     heights = np.asarray(ground.heights)
-    assert heights.shape == (161, 161)
-    assert heights.min() <= -0.3  # pits and the gaps between stepping stones
-    assert 0 < np.abs(heights[(heights > -0.1)]).max() <= 0.05  # rough ground
-    spawns = jnp.asarray(terrain.tile_centres(16.0))
-    assert spawns.shape == (16, 2)
-    offsets = jnp.array([[0.0, 0.0], [0.5, 0.5], [-0.5, 0.3]])
-    around = (spawns[:, None, :] + offsets[None]).reshape(-1, 2)
-    np.testing.assert_array_equal(np.asarray(terrain.height_at(ground, around)), 0.0)
+    assert heights.shape == (161, 321) and ground.datum == 0.0
+    centres = np.array([courses.tile_centre(layout, lv, k) for lv in (0, 1) for k in range(4)])
+    np.testing.assert_allclose(centres[:4], [[-12, -4], [-4, -4], [4, -4], [12, -4]])
+    offsets = np.array([[0.0, 0.0], [0.5, 0.5], [-0.5, 0.3]])
+    around = (centres[:, None, :] + offsets[None]).reshape(-1, 2)
+    np.testing.assert_array_equal(np.asarray(terrain.height_at(ground, jnp.asarray(around))), 0)
+
+    def tile(level: int, kind: int) -> np.ndarray:
+        column, row = (
+            round((centres[4 * level + kind, 0] + 16) / 0.1),
+            round((centres[4 * level + kind, 1] + 8) / 0.1),
+        )
+        return heights[row - 39 : row + 40, column - 39 : column + 40]
+
+    assert np.all(tile(0, 0) == 0) and np.all(tile(1, 0) == 0)  # flat
+    assert 0 < tile(0, 1).max() <= 0.02 and 0.1 < tile(1, 1).max() <= 0.12  # bumps: 2 -> 12 cm
+    assert tile(0, 1).min() >= 0  # bumps rise from the datum
+    assert tile(0, 3).min() == pytest.approx(-0.2) and tile(1, 3).min() == pytest.approx(-1.0)
+    assert tile(1, 2).min() == -1.0  # the gaps between stones
+    gaps = [np.mean(tile(level, 2) < -0.5) for level in (0, 1)]
+    assert gaps[0] < gaps[1]  # wider gaps at the top level
 
 
 def test_heightfield_in_mujoco_matches_height_at(robot) -> None:
     mujoco = pytest.importorskip("mujoco")
     from motionkit.train.env import mjcf_text
 
-    ground = terrain.mixed(8.0, seed=3)
+    ground = courses.build(courses.CourseLayout(2, ("rough", "stones", "pits"), 8.0, seed=3))
     model = mujoco.MjModel.from_xml_string(mjcf_text(robot, ground))
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     rng = np.random.default_rng(0)
-    points = rng.uniform(-3.5, 3.5, size=(200, 2))
+    points = rng.uniform([-11.5, -7.5], [11.5, 7.5], size=(400, 2))
     hit = np.zeros(1, np.int32)
     measured = []
     for x, y in points:

@@ -1,5 +1,7 @@
 """The MuJoCo C backend: the environments' physics in one `mujoco.batch.Batch`, stepped on all
 the CPU's cores between the jitted task functions of `Env` (`control`, `advance`, `start`).
+The model is the environment's own (`Env.mj_model`): on a course it holds the course's
+heightfield, the grid the task samples its heights from, as MJX's model does.
 
 The Batch holds the physics state (float64, with the solver's warm start); an `EnvState`'s
 `data` is a float32 `Kinematics` copy of what the task reads, tagged with the index of the
@@ -25,6 +27,7 @@ import numpy as np
 from flax import struct
 from mujoco import batch as mj_batch
 
+from motionkit.train.env.levels import Tile
 from motionkit.train.env.task import Env, EnvState, ResetPose
 
 READ = ("qpos", "qvel", "xpos", "xmat", "site_xpos")  # the fields the task reads
@@ -94,15 +97,17 @@ class BatchPhysics:
         keys: jax.Array,
         air_share: jax.Array | float | None = None,
         prior_share: jax.Array | float | None = None,
+        tiles: Tile | None = None,
     ) -> EnvState:
-        """A new episode in every environment (the keys: one each), as `Env.reset`."""
+        """A new episode in every environment (the keys: one each), as `Env.reset`; on a
+        course, on `tiles` (one each; None: the training's first tiles)."""
         count = keys.shape[0]
         if count != self.num_envs:
             raise ValueError(f"{count} keys for a batch of {self.num_envs} environments")
         air = jnp.full(count, self.env.config.air_probability if air_share is None else air_share)
         share = self.env.default_prior_share if prior_share is None else prior_share
         prior = jnp.full(count, share)
-        pose = self._poses(keys, air, prior)
+        pose = self._poses(keys, air, prior, tiles)
         rows = np.arange(count)
         data = self.place(rows, np.asarray(pose.qpos), np.asarray(pose.qvel))
         return self._start_all(pose, data)

@@ -19,10 +19,16 @@ end effectors relative to the base (4 x 3), thrust (4, here / T_max)), then the 
 height) and the waypoint relative to the base (3).
 The AMP features are those of `motionkit.dataset.amp_features` with the thrust as
 `Jets.feature` sees it (above idle, per T_max).
-An episode ends when the base is lower than `min_base_height` above the terrain (a fall), when
-the state is not finite, or after `episode_seconds`; `step` then starts a new one (auto-reset)
-and reports the last observation and AMP features of the ended one. A waypoint is replaced when
-reached or when its deadline passes (`motionkit.train.env.waypoints`).
+An episode ends when the base is lower than `min_base_height` above the surface below it (a
+fall; on a course a hole counts as its rim, so that a fall into a pit is a fall), when the state
+is not finite, or after `episode_seconds`; `step` then starts a new one (auto-reset) and reports
+the last observation and AMP features of the ended one. A waypoint is replaced when reached or
+when its deadline passes (`motionkit.train.env.waypoints`).
+
+The "terrain" scenario runs on a course (`motionkit.train.env.courses`: a tile per level and
+kind): each environment keeps a tile (`levels.Tile`) whose level follows the curriculum of
+`motionkit.train.env.levels`, starts its episodes on that tile's pad and follows routes across
+it (`motionkit.train.env.routes`).
 """
 
 from __future__ import annotations
@@ -43,8 +49,8 @@ from motionkit.robot import Robot
 from motionkit.train.amp import PriorData, amp_features
 from motionkit.train.config import EnvConfig, RewardConfig
 from motionkit.train.devices import resolve_impl
+from motionkit.train.env import courses, levels, routes, waypoints
 from motionkit.train.env import terrain as terrain_lib
-from motionkit.train.env import waypoints
 from motionkit.train.env.jets import Jets
 from motionkit.train.env.mjx import mjx, put_on_backend
 from motionkit.train.env.rewards import swing_reward, task_reward, task_terms
@@ -75,6 +81,8 @@ class EnvState:
     key: jax.Array
     obs: jax.Array
     chi: jax.Array  # AMP features now
+    tile: levels.Tile  # the course's tile the episode runs on (level 0, kind 0 on flat ground)
+    missed: jax.Array  # waypoints of the route (the first route_waypoints) missed so far
 
 
 @struct.dataclass
@@ -100,6 +108,11 @@ class StepInfo:
     episode_longest_flight: jax.Array  # the most control steps airborne in a row so far
     air_target: jax.Array  # the waypoint pursued in the step is an air one
     prior_reset: jax.Array  # the episode ended and the next one starts in a prior frame
+    level: jax.Array  # the level of the episode's tile (0 on flat ground)
+    kind: jax.Array  # the index of its kind
+    over_hole: jax.Array  # the base is over a pit or a gap after the step
+    moved: jax.Array  # horizontal distance the base moved in the step [m]
+    route_done: jax.Array  # the route's waypoints were all reached in turn, none missed
 
 
 @struct.dataclass
@@ -114,6 +127,7 @@ class ResetPose:
     air_share: jax.Array
     prior_share: jax.Array
     key: jax.Array  # the episode's own key
+    tile: levels.Tile
 
 
 def mjcf_text(robot: Robot, terrain: terrain_lib.Terrain | None) -> str:
@@ -137,7 +151,9 @@ class Env:
     """iRonCub in MJX with waypoint routes; a plain Python object holding static data.
     `prior`: the motion priors (`motionkit.train.priors.load_priors`) whose frames resets may
     start from; `self.prior` holds them with the environment's thrust features. `worlds`: the
-    environments stepped together on one device (sizes MuJoCo Warp's contact buffer)."""
+    environments stepped together on one device (sizes MuJoCo Warp's contact buffer).
+    `terrain`: a height grid of the course's shape to use instead of the course itself (a
+    hand-made course, for tests)."""
 
     def __init__(
         self,
@@ -147,16 +163,17 @@ class Env:
         jet_model: LSTMThrust | GreyBoxThrust | None = None,
         prior: PriorData | None = None,
         worlds: int = 1,
+        terrain: terrain_lib.Terrain | None = None,
     ) -> None:
         config = replace(config, impl=resolve_impl(config.impl))
         self.robot, self.config = robot, config
         self.reward_config = reward or RewardConfig()
         flat = config.scenario == "flat"
-        self.terrain = (
-            terrain_lib.flat()
-            if flat
-            else terrain_lib.mixed(config.terrain_size, config.terrain_seed)
-        )
+        self.course = None if flat else courses.CourseLayout.of(config)
+        self.kinds: tuple[str, ...] = () if flat else self.course.kinds
+        if terrain is None:
+            terrain = terrain_lib.flat() if flat else courses.build(self.course)
+        self.terrain = terrain
         model = mujoco.MjModel.from_xml_string(mjcf_text(robot, None if flat else self.terrain))
         model.opt.timestep = config.control_dt / config.substeps
         model.opt.iterations = config.solver_iterations
@@ -196,12 +213,8 @@ class Env:
         self.sole_sites = jnp.array([site(foot.sole) for foot in spec.feet])
         self.base_body = model.body(spec.root).id
 
-        if flat:
-            self.spawns = jnp.zeros((1, 2))
-            self.route_bound = 1e6
-        else:
-            self.spawns = jnp.asarray(terrain_lib.tile_centres(config.terrain_size))
-            self.route_bound = config.terrain_size / 2 - ROUTE_MARGIN
+        self.spawns = jnp.zeros((1, 2))  # flat ground's spawn point (a course's: `tile_centre`)
+        self.route_bound = 1e6 if flat else self.course.cells * terrain_lib.CELL / 2 - ROUTE_MARGIN
         grid_x = (np.arange(HEIGHT_MAP[0]) - (HEIGHT_MAP[0] - 1) / 2) * HEIGHT_CELL
         grid_y = (np.arange(HEIGHT_MAP[1]) - (HEIGHT_MAP[1] - 1) / 2) * HEIGHT_CELL
         self.height_points = jnp.asarray(np.stack(np.meshgrid(grid_x, grid_y, indexing="ij"), -1))
@@ -304,6 +317,8 @@ class Env:
         )
         joints = jnp.clip(joints, self.ctrl_low, self.ctrl_high)
         qpos = self.stand_qpos.at[:2].add(spawn).at[7:].set(joints)
+        if self.course is not None:  # on the ground below the spawn point
+            qpos = qpos.at[2].add(terrain_lib.height_at(self.terrain, spawn))
         low, high = self.config.initial_thrust
         thrust = jax.random.uniform(k_thrust, (self.num_jets,), minval=low, maxval=high)
         return qpos, jnp.zeros(self.mj_model.nv), jnp.minimum(thrust, self.t_max)
@@ -333,10 +348,13 @@ class Env:
         key: jax.Array,
         air_share: jax.Array | float | None = None,
         prior_share: jax.Array | float | None = None,
+        tile: levels.Tile | None = None,
     ) -> ResetPose:
         """Where a new episode starts, before its kinematics. `air_share` (default:
         air_probability): chance of an air waypoint; `prior_share` (default: reset_from_prior
-        with priors, else 0): chance to start in a prior frame."""
+        with priors, else 0): chance to start in a prior frame; `tile` (a course's; default: a
+        training environment's first, `levels.first_tile`): where it starts (the middle of
+        the tile's pad) and its route runs."""
         config = self.config
         has_states = self.prior is not None and self.prior.states is not None
         if air_share is None:
@@ -346,7 +364,15 @@ class Env:
         air_share = jnp.asarray(air_share, jnp.float32)
         prior_share = jnp.asarray(prior_share, jnp.float32)
         k_spawn, k_stand, k_target, k_pick, k_use, k_yaw, k_next = jax.random.split(key, 7)
-        spawn = self.spawns[jax.random.randint(k_spawn, (), 0, self.spawns.shape[0])]
+        if self.course is None:
+            spawn = self.spawns[jax.random.randint(k_spawn, (), 0, self.spawns.shape[0])]
+            tile = self.flat_tile
+        else:
+            if tile is None:
+                top = min(config.max_start_level, self.course.levels - 1)
+                kinds, moves = len(self.kinds), config.terrain_curriculum
+                tile = levels.first_tile(k_spawn, kinds, top, moves)
+            spawn = self.tile_centre(tile)
         qpos, qvel, thrust = self._standing(k_stand, spawn)
         origin, airborne = jnp.array(-1, jnp.int32), jnp.array(False)
         if has_states:
@@ -358,16 +384,63 @@ class Env:
             )
             origin = jnp.where(use, index, origin)
             airborne = use & frame[3]
-        target = waypoints.next_waypoint(
+        target = self.next_waypoint(
             k_target,
             qpos[:3],
-            config,
-            self.terrain,
-            self.route_bound,
             jnp.where(airborne, 1.0, air_share),
             facing_angle(quat_to_matrix(qpos[3:7]), self.forward),
+            tile,
         )
-        return ResetPose(qpos, qvel, thrust, origin, target, air_share, prior_share, k_next)
+        return ResetPose(qpos, qvel, thrust, origin, target, air_share, prior_share, k_next, tile)
+
+    @property
+    def flat_tile(self) -> levels.Tile:
+        """The one "tile" of flat ground, held still."""
+        return levels.fixed_tile(0, 0)
+
+    def tile_centre(self, tile: levels.Tile) -> jax.Array:
+        """(x, y) of the centre of a course's tile [m]."""
+        return jnp.stack(courses.tile_centre(self.course, tile.level, tile.kind)).astype(
+            jnp.float32
+        )
+
+    def evaluation_tile(self, key: jax.Array, fixed: tuple[int, int] | None = None) -> Any:
+        """The tile of an evaluation episode, held still: on a course, `fixed` (kind index,
+        level) or a random one of the whole course; None on flat ground."""
+        if self.course is None:
+            return None
+        if fixed is not None:
+            return levels.fixed_tile(fixed[1], fixed[0])
+        return levels.evaluation_tile(key, len(self.kinds), self.course.levels)
+
+    def next_waypoint(
+        self,
+        key: jax.Array,
+        previous: jax.Array,
+        air_share: jax.Array,
+        heading: jax.Array,
+        tile: levels.Tile,
+    ) -> jax.Array:
+        """The waypoint after `previous`: on flat ground `waypoints.next_waypoint`, on a course
+        the route across the tile (`routes.course_waypoint`)."""
+        if self.course is None:
+            return waypoints.next_waypoint(
+                key, previous, self.config, self.terrain, self.route_bound, air_share, heading
+            )
+        stones = (
+            tile.kind == self.kinds.index("stones") if "stones" in self.kinds else jnp.array(False)
+        )
+        return routes.course_waypoint(
+            key,
+            previous,
+            self.tile_centre(tile),
+            self.course.difficulty(tile.level),
+            stones,
+            self.config,
+            self.terrain,
+            self.route_bound,
+            air_share,
+        )
 
     def start(self, pose: ResetPose, data: Any) -> EnvState:
         """The episode that starts at `pose`, its kinematics `data` (an mjx.Data or the
@@ -391,6 +464,8 @@ class Env:
             key=pose.key,
             obs=self.observe(data, pose.thrust, pose.target),
             chi=self.features(data, pose.thrust),
+            tile=pose.tile,
+            missed=zero,
         )
 
     def reset(
@@ -398,9 +473,10 @@ class Env:
         key: jax.Array,
         air_share: jax.Array | float | None = None,
         prior_share: jax.Array | float | None = None,
+        tile: levels.Tile | None = None,
     ) -> EnvState:
         """A new episode in MJX (`reset_pose` and its kinematics)."""
-        return self._start_mjx(self.reset_pose(key, air_share, prior_share))
+        return self._start_mjx(self.reset_pose(key, air_share, prior_share, tile))
 
     def _start_mjx(self, pose: ResetPose) -> EnvState:
         data = mjx.kinematics(self.mx, self.stand.replace(qpos=pose.qpos, qvel=pose.qvel))
@@ -446,14 +522,12 @@ class Env:
         target_steps = state.target_steps + 1
         timed_out = ~hit & (target_steps >= state.deadline)
         new = hit | timed_out
-        new_target = waypoints.next_waypoint(
+        new_target = self.next_waypoint(
             k_target,
             jnp.where(hit, state.target, base),
-            self.config,
-            self.terrain,
-            self.route_bound,
             state.air_share,
             jnp.arctan2(facing[1], facing[0]),
+            state.tile,
         )
         target = jnp.where(new, new_target, state.target)
         deadline = jnp.where(new, self._deadline(base, new_target), state.deadline)
@@ -464,14 +538,22 @@ class Env:
         flight_steps = jnp.where(airborne, state.flight_steps + 1, 0)
         longest_flight = jnp.maximum(state.longest_flight, flight_steps)
 
+        route = self.config.route_waypoints
+        missed = state.missed + (timed_out & (state.reached < route)).astype(jnp.int32)
+        route_done = (reached >= route) & (missed == 0)
+
         finite = jnp.all(jnp.isfinite(data.qpos)) & jnp.all(jnp.isfinite(data.qvel))
-        lift = base[2] - terrain_lib.height_at(self.terrain, base[:2])
+        lift = base[2] - terrain_lib.surface_at(self.terrain, base[:2])
         fell = (lift < self.config.min_base_height) | ~finite
         truncated = (steps >= self.config.max_steps) & ~fell
         done = fell | truncated
         obs = self.observe(data, thrust, target)
         chi = self.features(data, thrust)
-        pose = self.reset_pose(k_reset, state.air_share, state.prior_share)
+        tile = state.tile
+        if self.course is not None:  # the curriculum: the next episode's level
+            up, key_level = (reached >= route) & ~fell, jax.random.fold_in(k_reset, 1)
+            tile = levels.next_tile(key_level, tile, up, fell, self.course.levels)
+        pose = self.reset_pose(k_reset, state.air_share, state.prior_share, tile)
         info = StepInfo(
             task_reward=jnp.where(finite, reward, 0.0),
             terms=terms,
@@ -492,6 +574,11 @@ class Env:
             episode_longest_flight=longest_flight,
             air_target=air_target,
             prior_reset=done & (pose.origin >= 0),
+            level=state.tile.level,
+            kind=state.tile.kind,
+            over_hole=terrain_lib.over_hole(self.terrain, base[:2]),
+            moved=jnp.linalg.norm(base[:2] - state.data.qpos[:2]),
+            route_done=route_done,
         )
         stepped = state.replace(
             data=data,
@@ -508,6 +595,7 @@ class Env:
             key=key,
             obs=obs,
             chi=chi,
+            missed=missed,
         )
         return stepped, info, pose
 

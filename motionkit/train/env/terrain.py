@@ -1,9 +1,14 @@
-"""Terrains as height grids: flat ground, or tiles of rough ground, stepping stones and pits.
+"""Terrain as one height grid: the MJCF heightfield the robot collides with (MuJoCo C and MJX
+alike) and the source of every height the task reads (`height_at`, bilinear; mjx.ray does not
+hit heightfields).
 
 A `Terrain` is a regular grid of heights [m] centred on the world origin, row = y, column = x
-(MuJoCo's heightfield layout). The same array becomes the MJCF heightfield the robot collides
-with and feeds `height_at`, the bilinear height sampler of the observations and rewards
-(mjx.ray does not hit heightfields). Flat ground is the floor plane of the robot's MJCF.
+(MuJoCo's heightfield layout). Flat ground is the floor plane of the robot's MJCF (its grid only
+serves `height_at`). A course (`motionkit.train.env.courses`) has a datum: the height of its
+pads and of the rims of its pits and gaps. Ground GAP_DEPTH or more below it is a hole, and
+`surface_at` reads a hole as the datum: a base that sinks into a pit is that much lower above
+the ground it should be on (a fall), and a waypoint over a pit is high above its rim, not its
+floor.
 """
 
 from __future__ import annotations
@@ -14,15 +19,15 @@ import numpy as np
 from flax import struct
 
 CELL = 0.1  # m, heightfield resolution
-TILE = 4.0  # m, side of one terrain tile
-PAD = 0.6  # m, half side of the flat pad in the middle of each tile (spawn area)
-KINDS = ("flat", "rough", "stones", "pits")
+GAP_DEPTH = 0.1  # m: ground this far below the datum is a hole (a pit or a gap between stones)
 
 
 @struct.dataclass
 class Terrain:
     heights: jax.Array  # (rows = y, columns = x) [m]
     cell: float = struct.field(pytree_node=False, default=CELL)
+    # the height of the course's pads and rims (None: no holes, as on flat ground)
+    datum: float | None = struct.field(pytree_node=False, default=None)
 
     @property
     def half_extent(self) -> tuple[float, float]:
@@ -50,49 +55,20 @@ def height_at(terrain: Terrain, xy: jax.Array) -> jax.Array:
     return (1 - fv) * top + fv * bottom
 
 
-def tile_centres(size: float) -> np.ndarray:
-    """(n, 2) centres of the tiles of a terrain of side `size` (the spawn points)."""
-    count = max(1, int(size // TILE))
-    offsets = (np.arange(count) - (count - 1) / 2) * TILE
-    return np.array([(x, y) for y in offsets for x in offsets])
+def surface_at(terrain: Terrain, xy: jax.Array) -> jax.Array:
+    """The ground a robot should be on at xy: the height, but the datum over a hole (ground
+    GAP_DEPTH or more below the datum); the height itself without a datum."""
+    height = height_at(terrain, xy)
+    if terrain.datum is None:
+        return height
+    return jnp.where(height < terrain.datum - GAP_DEPTH, terrain.datum, height)
 
 
-def _tile(kind: str, rng: np.random.Generator, n: int) -> np.ndarray:
-    """Heights of one n x n tile of the given kind (a flat pad in the middle is added later)."""
-    xs = (np.arange(n) - (n - 1) / 2) * CELL
-    x, y = np.meshgrid(xs, xs)
-    if kind == "rough":  # +-4 cm bumps, smoothed over about 0.3 m
-        coarse = rng.uniform(-0.04, 0.04, (n // 3 + 2, n // 3 + 2))
-        return np.kron(coarse, np.ones((3, 3)))[:n, :n]
-    if kind == "stones":  # 0.3 m stones 0.5 m apart over a 0.5 m deep gap
-        period, stone = 0.5, 0.3
-        on_x = np.abs((x + period / 2) % period - period / 2) < stone / 2
-        on_y = np.abs((y + period / 2) % period - period / 2) < stone / 2
-        return np.where(on_x & on_y, rng.uniform(-0.03, 0.03), -0.5)
-    if kind == "pits":  # a ring of 0.4-0.8 m wide, 0.3-0.6 m deep pits
-        ring = np.maximum(np.abs(x), np.abs(y))
-        inner = rng.uniform(0.9, 1.2)
-        width = rng.uniform(0.4, 0.8)
-        return np.where((ring > inner) & (ring < inner + width), -rng.uniform(0.3, 0.6), 0.0)
-    return np.zeros_like(x)
-
-
-def mixed(size: float, seed: int) -> Terrain:
-    """A square terrain of side `size` tiled with flat, rough, stepping-stone and pit tiles
-    (each tile has a flat pad in the middle where episodes start)."""
-    rng = np.random.default_rng(seed)
-    count = max(1, int(size // TILE))
-    n = round(TILE / CELL)
-    grid = np.zeros((count * n + 1, count * n + 1))
-    xs = (np.arange(n) - (n - 1) / 2) * CELL
-    pad = np.maximum(*np.meshgrid(np.abs(xs), np.abs(xs))) <= PAD
-    for row in range(count):
-        for col in range(count):
-            kind = KINDS[(row * count + col) % len(KINDS)] if count > 1 else "rough"
-            tile = np.where(pad, 0.0, _tile(kind, rng, n))
-            grid[row * n : (row + 1) * n, col * n : (col + 1) * n] = tile
-    grid[-1, :], grid[:, -1] = grid[-2, :], grid[:, -2]
-    return Terrain(jnp.asarray(grid, dtype=jnp.float32))
+def over_hole(terrain: Terrain, xy: jax.Array) -> jax.Array:
+    """Whether xy lies over a hole: ground GAP_DEPTH or more below the datum."""
+    if terrain.datum is None:
+        return jnp.zeros(xy.shape[:-1], bool)
+    return height_at(terrain, xy) < terrain.datum - GAP_DEPTH
 
 
 def hfield_mjcf(terrain: Terrain, thickness: float = 0.5) -> tuple[str, str]:

@@ -2,7 +2,9 @@
 from where it is drawn from (3-D), on the ground (base at `ground_height` above the terrain) or,
 with probability `air_share`, in the air (base `air_height` above the terrain). A waypoint that
 is not reached within its deadline is replaced; the share of air waypoints can rise over the
-first iterations of training (a curriculum)."""
+first iterations of training (a curriculum). Heights are above the surface
+(`terrain.surface_at`: on a course, a hole counts as its rim); routes across a course's tiles
+are drawn by `motionkit.train.env.routes`."""
 
 from __future__ import annotations
 
@@ -10,12 +12,12 @@ import jax
 import jax.numpy as jnp
 
 from motionkit.train.config import EnvConfig
-from motionkit.train.env.terrain import Terrain, height_at
+from motionkit.train.env.terrain import Terrain, surface_at
 
 
 def lift_of(terrain: Terrain, point: jax.Array) -> jax.Array:
-    """Height of a point above the terrain below it."""
-    return point[2] - height_at(terrain, point[:2])
+    """Height of a point above the surface below it."""
+    return point[2] - surface_at(terrain, point[:2])
 
 
 def next_waypoint(
@@ -46,7 +48,7 @@ def next_waypoint(
         angle = heading + jax.random.uniform(k_angle, minval=-cone, maxval=cone)
     xy = previous[:2] + horizontal * jnp.array([jnp.cos(angle), jnp.sin(angle)])
     xy = jnp.clip(xy, -bound, bound)
-    return jnp.array([xy[0], xy[1], height_at(terrain, xy) + lift])
+    return jnp.array([xy[0], xy[1], surface_at(terrain, xy) + lift])
 
 
 def in_air(terrain: Terrain, target: jax.Array, config: EnvConfig) -> jax.Array:
