@@ -51,6 +51,9 @@ class EnvConfig:
     # set point (a + 1) / 2 * T_max, approached at up to thrust_rate_max (as a throttle is)
     jet_action: str = "rate"
     initial_thrust: tuple[float, float] = (0.0, 0.0)  # N per jet at a standing reset (ideal jet)
+    # the share of T_max the (ideal) jets may give: 0 holds them off, as in walking stages where
+    # thrust would steady a shuffle instead of the legs learning to step
+    thrust_limit: float = 1.0
     min_base_height: float = 0.4  # m above the terrain; lower ends the episode (a fall)
     waypoint_distance: tuple[float, float] = (0.7, 2.0)  # m between consecutive waypoints
     waypoint_radius: float = 0.3  # m: a waypoint closer than this is reached
@@ -131,6 +134,11 @@ class EnvConfig:
             raise TrainError(
                 f"jet_action = '{self.jet_action}' needs jet = 'ideal' (a fitted jet's action "
                 "is its throttle)"
+            )
+        check(self, TrainError, "in [0, 1]", "thrust_limit")
+        if self.jet != "ideal" and self.thrust_limit != 1.0:
+            raise TrainError(
+                "'thrust_limit' needs jet = 'ideal' (a fitted jet's thrust is its own)"
             )
         if self.jet != "ideal" and self.initial_thrust != (0.0, 0.0):
             raise TrainError("'initial_thrust' needs jet = 'ideal' (the LSTM starts at idle)")

@@ -176,3 +176,25 @@ def test_the_swing_term_reads_each_soles_lift_and_speed(impl_env, started) -> No
     # nor does the same step on the way to an air waypoint (1.2 m up)
     air = ground.at[2].set(env.config.ground_height + 0.6)
     assert float(env._swing(data, after, clearance, air)) == 0.0
+
+
+def test_the_thrust_limit_caps_the_ideal_jets(robot, tiny_config) -> None:
+    """The thrust set point at full (T_max) approached at 300 N/s for 0.2 s: 60 N a jet free,
+    37.5 N with thrust_limit 0.15 (0.15 x 250 N), none with 0; a fitted jet refuses a limit."""
+    from motionkit.train.config import EnvConfig
+
+    def thrust_after(limit: float) -> np.ndarray:
+        config = replace(tiny_config.env, impl="jax", jet_action="thrust", thrust_limit=limit)
+        env = Env(robot, config, tiny_config.reward)
+        state = env.reset(jax.random.key(0))
+        full = jnp.ones(env.action_size)
+        for _ in range(round(0.2 * config.control_hz)):
+            _, jet, thrust = env.control(state, full)
+            state = state.replace(thrust=thrust, jet=jet)
+        return np.asarray(thrust)
+
+    np.testing.assert_allclose(thrust_after(1.0), 60.0, rtol=1e-5)
+    np.testing.assert_allclose(thrust_after(0.15), 37.5, rtol=1e-5)
+    np.testing.assert_allclose(thrust_after(0.0), 0.0)
+    with pytest.raises(TrainError, match="'thrust_limit' needs jet = 'ideal'"):
+        EnvConfig(jet="lstm", jet_model="m.npz", thrust_limit=0.5)

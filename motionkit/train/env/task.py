@@ -490,9 +490,12 @@ class Env:
 
     def control(self, state: EnvState, action: jax.Array) -> tuple[jax.Array, Any, jax.Array]:
         """(ctrl, jet model state, thrust) of `action` from `state`: the action clipped to
-        [-1, 1], the PD targets mapped, the jets stepped."""
+        [-1, 1], the PD targets mapped, the jets stepped (the ideal jets' thrust at most
+        `thrust_limit` of T_max)."""
         action = jnp.clip(action, -1.0, 1.0)
         jet, thrust = self._jets(state, action[self.num_joints :])
+        if self.config.thrust_limit < 1.0:
+            thrust = jnp.minimum(thrust, self.config.thrust_limit * self.t_max)
         return jnp.concatenate([self.joint_targets(action[: self.num_joints]), thrust]), jet, thrust
 
     def advance(
