@@ -26,11 +26,16 @@ class RetargetStage:
 class TrajoptStage:
     recipes: tuple[str, ...] = field(default_factory=tuple)  # one flight per recipe
     library: str = ""  # a flight library (the built-in: library): every clip it names
-    jobs: int = 0  # processes for the library, 0 = one per CPU
+    jobs: int = 0  # processes for the flights and the library, 0 = one per CPU
     replay: bool = True  # check every flight by a MuJoCo replay
+    # The stage succeeds when every recipe flight is solved and, of each kind of library clip
+    # (take-off, flight, landing, jump), at least this share; the failed clips are listed in
+    # its summary. 1.0: every clip.
+    min_solved_share: float = 0.75
 
     def __post_init__(self) -> None:
         check(self, PipelineError, ">= 0", "jobs")
+        check(self, PipelineError, "in (0, 1]", "min_solved_share")
 
 
 @dataclass(frozen=True)

@@ -6,9 +6,11 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from motionkit.core.errors import PipelineError
 from motionkit.files.digests import code_digest, digest, file_digest, versions
@@ -17,6 +19,10 @@ from motionkit.pipeline.cache import Outcome, run_cached
 from motionkit.pipeline.config import PipelineConfig
 from motionkit.robot import Robot
 from motionkit.runtime.progress import Progress, silent
+
+if TYPE_CHECKING:
+    from motionkit.trajopt.config import TrajoptConfig
+    from motionkit.trajopt.runner import Outcome as TrajoptOutcome
 
 JAX = ("jax", "jaxlib", "flax", "optax")
 # the modules the jet-ident stage's work runs (the key hashes them and what they import)
@@ -116,10 +122,16 @@ def retarget(ctx: Context) -> Outcome:
     return ctx.run("retarget", parts, "walk", work)
 
 
+TRAJOPT_CLIPS = "trajopt_clips"  # OUT/.pipeline/trajopt_clips: every flight solved, kept
+
+
 def trajopt(ctx: Context) -> Outcome:
+    """The recipe flights and the flight library in one batch of solves. Each clip is written
+    as it is solved into the stage's clip cache (OUT/.pipeline/trajopt_clips, with its key),
+    which outlives a failed or interrupted stage: a rerun solves only the clips that are
+    missing there or out of date, then copies the stage's clips into its folder."""
     from motionkit.trajopt.config import TrajoptConfig
     from motionkit.trajopt.library import read_library
-    from motionkit.trajopt.runner import solve_clip, solve_library, summary_line
 
     stage = ctx.config.trajopt
     configs = {}
@@ -128,41 +140,98 @@ def trajopt(ctx: Context) -> Outcome:
         configs[recipe.stem] = replace(config, solver=replace(config.solver, print_level=0))
     library = ctx.config.resolve("trajopt", stage.library) if stage.library else None
     solves = read_library(library) if library else []
+    clashing = sorted(set(configs) & {s.name for s in solves})
+    if clashing:
+        raise PipelineError(f"[trajopt] recipe flights and library clips both named {clashing}")
     parts = (
         {name: c.to_dict() for name, c in configs.items()},
         {s.name: s.config.to_dict() for s in solves},
         stage.replay,
+        stage.min_solved_share,
         ctx.robot.model_hash,
         code_digest("motionkit.trajopt.runner", "motionkit.trajopt.library"),
         versions("casadi", "adam-robotics", "mujoco"),
     )
 
     def work(folder: Path) -> str:
-        solve_s = 0.0
-        for i, (name, config) in enumerate(configs.items(), 1):
-            ctx.progress(f"flight {i}/{len(configs)}: {name} ({config.scenario.knots} knots)")
-            metrics = solve_clip(
-                config, folder, name, ctx.robot, stage.replay, progress=ctx.progress
-            )
-            ctx.progress(summary_line(name, metrics))
-            solve_s += metrics["solve_s"]
-        made = [f"{len(configs)} flight(s) ({', '.join(configs)})"] if configs else []
-        if library is not None:
-            jobs = stage.jobs or os.cpu_count() or 1
-            outcomes = solve_library(library, folder, ctx.robot, jobs, stage.replay, quiet=True,
-                                     cluster=ctx.cluster, progress=ctx.progress)  # fmt: skip
-            failed = [f"{o.name}: {o.text}" for o in outcomes if not o.solved]
-            if failed:
-                raise PipelineError(
-                    f"trajopt: {len(failed)} of {len(outcomes)} library clips failed: "
-                    + "; ".join(failed)
-                )
-            airborne = sum(o.figures["airborne_s"] for o in outcomes)
-            solve_s += sum(o.figures["solve_s"] for o in outcomes)
-            made.append(f"{len(outcomes)} library clips ({airborne:.0f} s airborne)")
-        return f"{' and '.join(made)}, IPOPT {solve_s:.0f} s, checked"
+        return _solve_flights(ctx, configs, library, folder)
 
     return ctx.run("trajopt", parts, "flight", work)
+
+
+def _solve_flights(
+    ctx: Context, flights: dict[str, TrajoptConfig], library: Path | None, folder: Path
+) -> str:
+    """Solve the recipe `flights` and the `library` into the clip cache, copy the solved
+    clips into `folder`; the stage's line, or PipelineError when too few solved."""
+    from motionkit.trajopt.runner import Task, library_tasks, solve_batch
+
+    stage = ctx.config.trajopt
+    tasks = [Task(c.to_dict(), name, stage.replay, ctx.robot) for name, c in flights.items()]
+    configs = list(flights.values())
+    if library is not None:
+        more, more_configs = library_tasks(library, ctx.robot, stage.replay, True, ctx.progress)
+        tasks, configs = tasks + more, configs + more_configs
+    cache = ctx.records / TRAJOPT_CLIPS
+    jobs = stage.jobs or os.cpu_count() or 1
+    outcomes = solve_batch(tasks, configs, cache, jobs, cluster=ctx.cluster, resume=True,
+                           progress=ctx.progress)  # fmt: skip
+    failed = [o for o in outcomes if not o.solved]
+    for outcome in failed:
+        ctx.progress(f"trajopt: {outcome.name} failed: {outcome.text}")
+    count = len(flights)
+    library_outcomes = outcomes[count:]
+    shortfall = _shortfall(
+        outcomes[:count], library_outcomes, configs[count:], stage.min_solved_share
+    )
+    solved = [o for o in outcomes if o.solved]
+    if shortfall:
+        raise PipelineError(
+            f"trajopt: {'; '.join(shortfall)}; failed: "
+            + "; ".join(f"{o.name}: {o.text}" for o in failed)
+            + f" ({len(solved)} solved clips kept in {cache}: the next run solves only the rest)"
+        )
+    _copy_clips(cache, folder, [o.name for o in solved])
+    made = [f"{len(flights)} flight(s) ({', '.join(flights)})"] if flights else []
+    if library is not None:
+        done = [o for o in library_outcomes if o.solved]
+        airborne = sum(o.figures["airborne_s"] for o in done)
+        made.append(
+            f"{len(done)} of {len(library_outcomes)} library clips ({airborne:.0f} s airborne)"
+        )
+    solve_s = sum(o.figures["solve_s"] for o in solved)
+    line = f"{' and '.join(made)}, IPOPT {solve_s:.0f} s, checked"
+    if failed:
+        line += f"; {len(failed)} failed: {', '.join(o.name for o in failed)} (--force retries)"
+    return line
+
+
+def _shortfall(
+    flights: list[TrajoptOutcome],
+    clips: list[TrajoptOutcome],
+    configs: list[TrajoptConfig],
+    share: float,
+) -> list[str]:
+    """Why the solves fall short of the stage's rule (none: they do not): a recipe flight that
+    failed, or a kind of library clip with less than `share` of its clips solved."""
+    reasons = [f"flight '{o.name}' failed" for o in flights if not o.solved]
+    kinds: dict[str, list[bool]] = {}
+    for outcome, config in zip(clips, configs, strict=True):
+        kinds.setdefault(config.kind, []).append(outcome.solved)
+    for kind, solved in sorted(kinds.items()):
+        if sum(solved) < share * len(solved):
+            reasons.append(
+                f"{sum(solved)} of {len(solved)} {kind} clips solved (at least {share:.0%} needed)"
+            )
+    return reasons
+
+
+def _copy_clips(cache: Path, folder: Path, names: list[str]) -> None:
+    """The files of the solved clips `names`, from the clip cache into the stage's folder."""
+    from motionkit.trajopt.runner import clip_files
+
+    for name in clip_files(names):
+        shutil.copyfile(cache / name, folder / name)
 
 
 def jet_ident(ctx: Context) -> Outcome:

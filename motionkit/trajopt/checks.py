@@ -94,11 +94,19 @@ def solver_figures(solution: Solution) -> dict[str, Any]:
         "dt_s": solution.dt,
         "duration_s": solution.dt * (len(solution.knots["com"]) - 1),
         "iterations": solution.iterations,
+        "max_iter": solution.config.solver.max_iter,  # IPOPT's limit on each step
+        "retries": solution.retries,
         "status": solution.status,
         "build_s": round(solution.build_seconds, 3),
         "solve_s": round(solution.solve_seconds, 3),
         "homotopy": [
-            {"eps": s.eps, "status": s.status, "iterations": s.iterations, "s": round(s.seconds, 3)}
+            {
+                "eps": s.eps,
+                "status": s.status,
+                "iterations": s.iterations,
+                "s": round(s.seconds, 3),
+                "retry": s.retry,
+            }
             for s in solution.steps
         ],
     }

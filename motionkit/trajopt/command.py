@@ -36,7 +36,10 @@ feedback through the jets, which must track the plan within [replay] max_base_er
 cannot be solved exits with status 1 and writes nothing. --library FILE solves every clip a flight
 library names (the built-in one: --library library). With --grid or --library, --cluster ADDRESS
 solves on a Ray cluster (the [cluster] extra; the derivatives are compiled here once and sent to
-the workers, this process writes the files) and --resume keeps the clips that are up to date."""
+the workers, this process writes the files). A --grid or --library batch writes each clip as soon
+as it is solved and keeps the clips in --out that are up to date (same config, robot, code and
+libraries), so that after a failure or an interrupt the same command solves only what is
+missing (--resume, the default); --force solves every clip again."""
 
 
 def add_commands(
@@ -79,6 +82,11 @@ def add_commands(
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
                         help="parallel processes for --grid and --library")  # fmt: skip
     add_batch_options(parser, "--grid and --library solves")
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="with --grid or --library: solve every clip again, up to date or not",
+    )
     robot_source(parser)
     parser.set_defaults(handler=_run)
 
@@ -111,8 +119,8 @@ def _run(args: argparse.Namespace) -> int | None:
     config = _config(args)
     robot = load_robot(args.urdf, args.spec)
     if args.grid is None:
-        if args.cluster or args.resume:
-            raise TrajoptError("--cluster and --resume apply to --grid and --library")
+        if args.cluster or args.resume or args.force:
+            raise TrajoptError("--cluster, --resume and --force apply to --grid and --library")
         name = args.name or clip_stem(config)
         check_clips(args.out, [name])  # an --out it cannot write is exit 2, before the solve
         try:
@@ -129,7 +137,7 @@ def _run(args: argparse.Namespace) -> int | None:
         raise TrajoptError(f"--grid: expected comma-separated numbers ({exc})") from exc
     targets = list(itertools.product(*axes))
     outcomes = solve_grid(config, targets, args.out, robot, args.jobs, not args.no_replay,
-                          args.cluster, args.resume, progress=echo)  # fmt: skip
+                          args.cluster, _resume(args), progress=echo)  # fmt: skip
     failed = sum(not o.solved for o in outcomes)
     print(f"{len(targets) - failed} of {len(targets)} targets solved; clips in {args.out}")
     return 1 if failed else None
@@ -145,7 +153,15 @@ def _run_library(args: argparse.Namespace) -> int | None:
         raise TrajoptError(f"--library names its own scenarios and targets: drop {clashing}")
     robot = load_robot(args.urdf, args.spec)
     outcomes = solve_library(args.library, args.out, robot, args.jobs, not args.no_replay,
-                             args.quiet, args.cluster, args.resume, progress=echo)  # fmt: skip
+                             args.quiet, args.cluster, _resume(args), progress=echo)  # fmt: skip
     print(library_summary(outcomes, clock.perf_counter() - start, args.jobs, args.cluster))
     print(f"clips in {args.out}")
     return 1 if any(not o.solved for o in outcomes) else None
+
+
+def _resume(args: argparse.Namespace) -> bool:
+    """Whether a batch keeps its up-to-date clips: yes unless --force (--resume, the default,
+    says so explicitly)."""
+    if args.force and args.resume:
+        raise TrajoptError("--force solves every clip again, --resume keeps the solved: drop one")
+    return not args.force

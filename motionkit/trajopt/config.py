@@ -88,9 +88,12 @@ class Weights:
 class Contacts:
     mu: float = 0.33  # friction pyramid (published setting)
     # Relaxed complementarity f_z c_z <= eps, f_z in units of m g / 8: the homotopy solves with
-    # each value in turn, warm-started from the previous solution (walk_to_fly.toml adds 1e-4
-    # and 1e-5).
-    eps: tuple[float, ...] = (1e-2, 1e-6)
+    # each value in turn, warm-started from the previous solution (walk_to_fly.toml has its
+    # own). Steps of 10x: the solution at 1e-2, its feet still pressing through a centimetre of
+    # relaxation, is far from the one at 1e-6 (a jump's cost rose by 45 % between them), and a
+    # direct step took 100-340 iterations (the jumps, take-offs); in steps of 10x each took
+    # 5-70 (take-offs, landings, jumps) and the four together about as many as the one.
+    eps: tuple[float, ...] = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6)
     slip_eps: float = 1e-4  # no slip while loaded: |f_z * step of the corner| <= this [m]
 
     def __post_init__(self) -> None:

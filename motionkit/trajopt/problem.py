@@ -23,6 +23,7 @@ from motionkit.trajopt.config import TrajoptConfig
 from motionkit.trajopt.dynamics import ProblemFunctions
 from motionkit.trajopt.layout import KnotLayout
 
+QUATERNION_BOX = 1.5  # |component| bound of the base quaternion variables (see _default_bounds)
 # threads for the term functions (IPOPT itself and MUMPS run on one)
 THREADS = int(os.environ.get("MOTIONKIT_TRAJOPT_THREADS", min(2, os.cpu_count() or 1)))
 
@@ -95,7 +96,12 @@ class Problem:
         limits = robot.limits
         speed = np.minimum(limits.velocity, config.solver.max_joint_velocity)
         every = slice(None)
-        self.bound(every, "base_quaternion", -np.ones(4), np.ones(4))
+        # a box the unit quaternions of the knots never reach: at [-1, 1] the upright
+        # orientation (w = 1), where the cost pulls every knot, sat on the bound, which the
+        # normalised Euler step implies there (degenerate, and a barrier pushing away from it)
+        self.bound(
+            every, "base_quaternion", -QUATERNION_BOX * np.ones(4), QUATERNION_BOX * np.ones(4)
+        )
         self.bound(every, "joints", limits.lower, limits.upper)
         self.bound(every, "joint_velocities", -speed, speed)
         t_max = np.array([jet.t_max for jet in robot.spec.jets]) * config.scenario.thrust_fraction

@@ -149,7 +149,7 @@ def summary_line(name: str, metrics: dict[str, Any]) -> str:
         The line, without a newline.
     """
     text = (
-        f"{name}: {metrics['status']}, {metrics['iterations']} iterations, "
+        f"{name}: {metrics['status']}, {metrics['iterations']} iterations{_margin(metrics)}, "
         f"{metrics['solve_s']:.1f} s (+{metrics['build_s']:.1f} s build); "
         f"{metrics['variables']} variables, {metrics['constraints']} constraints; "
         f"target error {metrics['target_error_m'] * 1000:.2f} mm, complementarity "
@@ -163,6 +163,18 @@ def summary_line(name: str, metrics: dict[str, Any]) -> str:
     return text
 
 
+def _margin(metrics: dict[str, Any]) -> str:
+    """The margin to IPOPT's limit, " (at most N of MAX_ITER a step, R step(s) retried)",
+    where the metrics have it (those of older clips may not)."""
+    steps = metrics.get("homotopy")
+    if not isinstance(steps, list) or "max_iter" not in metrics:
+        return ""
+    largest = max(int(step["iterations"]) for step in steps)
+    retries = int(metrics.get("retries", 0))
+    text = f" (at most {largest} of {metrics['max_iter']} a step"
+    return text + (f", {retries} step(s) retried)" if retries else ")")
+
+
 def solve_grid(
     config: TrajoptConfig,
     targets: Iterable[tuple[float, float, float]],
@@ -171,7 +183,7 @@ def solve_grid(
     jobs: int,
     replay: bool = True,
     cluster: str | None = None,
-    resume: bool = False,
+    resume: bool = True,
     *,
     progress: Progress = silent,
 ) -> list[Outcome]:
@@ -188,7 +200,8 @@ def solve_grid(
         jobs: the number of local worker processes.
         replay: also replay each solution in MuJoCo (see `solve_clip`).
         cluster: the address of a Ray cluster to solve on instead (None: local processes).
-        resume: keep the clips in `out` that are up to date instead of solving them again.
+        resume: keep the clips in `out` that are up to date instead of solving them again
+            (False: solve every target again).
         progress: called with each line of progress and each outcome's line.
 
     Returns:
@@ -215,15 +228,16 @@ def solve_library(
     replay: bool = True,
     quiet: bool = False,
     cluster: str | None = None,
-    resume: bool = False,
+    resume: bool = True,
     *,
     progress: Progress = silent,
 ) -> list[Outcome]:
     """Solve, check and write every clip of a flight library for `robot`.
 
-    The solves run in `jobs` processes (or on the Ray cluster at `cluster`); a clip that fails
-    is reported in its outcome and writes nothing; `resume` keeps the clips that are up to
-    date.
+    The solves run in `jobs` processes (or on the Ray cluster at `cluster`); each clip is
+    written as soon as it is solved, a clip that fails is reported in its outcome and writes
+    nothing, and a rerun (`resume`) keeps the clips that are up to date: after a failure or an
+    interrupt, only the missing clips are solved.
 
     Args:
         path: the library's TOML file (see `read_library`).
@@ -233,7 +247,8 @@ def solve_library(
         replay: also replay each solution in MuJoCo (see `solve_clip`).
         quiet: silence IPOPT (print_level 0) even where an entry asks for its log.
         cluster: the address of a Ray cluster to solve on instead (None: local processes).
-        resume: keep the clips in `out` that are up to date instead of solving them again.
+        resume: keep the clips in `out` that are up to date instead of solving them again
+            (False: solve every clip again).
         progress: called with each line of progress and each outcome's line.
 
     Returns:
@@ -244,6 +259,15 @@ def solve_library(
             missing, an `out` that cannot take the clips, or a `cluster` that cannot be
             reached (all before anything is written).
     """
+    tasks, configs = library_tasks(path, robot, replay, quiet, progress)
+    return solve_batch(tasks, configs, out, jobs, cluster, resume, progress=progress)
+
+
+def library_tasks(
+    path: Path, robot: Robot, replay: bool, quiet: bool, progress: Progress = silent
+) -> tuple[list[Task], list[TrajoptConfig]]:
+    """The solves of a flight library as batch tasks, and their configs (IPOPT silenced when
+    `quiet`); TrajoptError when the library cannot be read or is invalid."""
     from motionkit.trajopt.library import read_library
 
     solves = read_library(path)
@@ -255,7 +279,7 @@ def solve_library(
         for solve, config in zip(solves, configs, strict=True)
     ]
     progress(f"{path}: {len(tasks)} clips from {len({s.entry for s in solves})} entries")
-    return solve_batch(tasks, configs, out, jobs, cluster, resume, progress=progress)
+    return tasks, configs
 
 
 def solve_batch(
@@ -271,10 +295,11 @@ def solve_batch(
     """Solve the tasks in `jobs` worker processes (or on the Ray cluster at `cluster`),
     reporting each outcome to `progress` as it comes (and, from the workers, the solves' lines
     when `progress` can be pickled: a module-level function); the workers return the files and
-    this process writes them. With several workers, the compiled derivatives of each distinct
-    jet model in `configs` are built here first, once, and handed to the workers (whose caches
-    may be on other machines). With `resume`, a clip whose files are up to date (`task_key`) is
-    kept."""
+    this process writes them, each clip as soon as it is solved (atomically, its key recorded
+    last), so that an interrupted or failed batch keeps every clip solved. With several
+    workers, the compiled derivatives of each distinct jet model in `configs` are built here
+    first, once, and handed to the workers (whose caches may be on other machines). With
+    `resume`, a clip whose files are up to date (`task_key`) is kept."""
     require("trajopt", "trajopt", TrajoptError)
     if not tasks:
         return []
@@ -373,7 +398,10 @@ def library_summary(
         + (f"on --cluster {cluster}" if cluster else f"with --jobs {jobs}")
     )
     if failed:
-        lines.append(f"failed: {', '.join(failed)}")
+        lines.append(
+            f"failed: {', '.join(failed)} (the solved clips are kept: the same command again "
+            "solves only what is missing)"
+        )
     return "\n".join(lines)
 
 

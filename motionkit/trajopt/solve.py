@@ -2,13 +2,18 @@
 
 Each homotopy step tightens eps (f_z c_z <= eps) and starts from the previous solution and its
 multipliers (warm start with a small initial barrier parameter), so the later steps take few
-iterations. A failed final step raises TrajoptError with IPOPT's status and the largest violation.
+iterations. A step that IPOPT does not solve (out of iterations, say: IPOPT's path, and so its
+iteration count, depends on the CPU's rounding) is tried once more another way before the solve
+fails: the first, cold step from where it stopped (warm-started: a fresh barrier and filter), a
+later step from the previous step's solution in steps of eps of at most 10x. A step that fails
+again raises TrajoptError with IPOPT's status and the largest violation.
 """
 
 from __future__ import annotations
 
 import ctypes
 import functools
+import itertools
 import time as clock
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -29,12 +34,21 @@ from motionkit.trajopt.scenarios import apply_scenario
 SUCCESS = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 
 
+COLD_BOUND_PUSH = 1e-5  # how far IPOPT moves the initial guess off its bounds (see _options)
+RETRY_FACTOR = 10.0  # a retried warm step tightens eps by at most this factor at a time
+
+
 @dataclass
 class Step:
     eps: float
     status: str
     iterations: int
     seconds: float
+    retry: str = ""  # how a retry differs from the planned step ("": the planned step)
+
+    @property
+    def solved(self) -> bool:
+        return self.status in SUCCESS
 
 
 @dataclass
@@ -70,6 +84,11 @@ class Solution:
     @property
     def status(self) -> str:
         return self.steps[-1].status
+
+    @property
+    def retries(self) -> int:
+        """The steps that were retries of a step IPOPT did not solve."""
+        return sum(bool(step.retry) for step in self.steps)
 
 
 @functools.cache
@@ -136,6 +155,11 @@ class Prepared:
             # complementarity; iterations in all (default -> this): take-off 362 -> 148, landing
             # 129 -> 127, jump 270 -> 256, walk-to-fly 232 -> 196, flight 26 -> 26
             ipopt["fixed_mu_oracle"] = "quality-function"
+            # IPOPT moves a start on a bound 1e-2 into the interior (absolute, as the bounds here
+            # are 0): 1 cm for the corner heights of the feet on the floor, a distance the
+            # contacts resolve to micrometres. 1e-5 leaves the guess where it is; cold jump
+            # steps (the four library jumps): 286, 144, 176, 183 -> 154, 146, 124, 174
+            ipopt["bound_push"] = ipopt["bound_frac"] = COLD_BOUND_PUSH
         ipopt |= solver.options
         if solver.hessian == "limited-memory":
             ipopt["hessian_approximation"] = "limited-memory"
@@ -150,55 +174,39 @@ class Prepared:
         return {"ipopt": ipopt, "print_time": False, "calc_lam_p": False}
 
     def solve(self, log: Callable[[str], None] | None = None) -> Solution:
-        """Run the homotopy; raise TrajoptError when the last step does not converge."""
+        """Run the homotopy (each unsolved step retried once); raise TrajoptError when a step
+        stays unsolved."""
         lbx, ubx = self.problem.variable_bounds()
         lbg, ubg = self.problem.constraint_bounds()
         x0 = np.concatenate([self.guess.ravel(order="F"), [self.dt_guess]])
-        x0 = np.clip(x0, lbx, ubx)
-        args: dict[str, Any] = {"x0": x0, "lbx": lbx, "ubx": ubx, "lbg": lbg, "ubg": ubg}
+        bounds = {"lbx": lbx, "ubx": ubx, "lbg": lbg, "ubg": ubg}
         steps: list[Step] = []
-        result: dict[str, Any] = {}
-        for i, eps in enumerate(self.config.contacts.eps):
-            solver = self.cold if i == 0 or not self.config.solver.warm_start else self.warm
-            start = clock.perf_counter()
-            with interruptible():  # Ctrl-C and SIGTERM stop IPOPT and end the program
-                result = solver(**args, p=self.problem.functions.parameters(eps))
-            stats = solver.stats()
-            steps.append(
-                Step(
-                    eps,
-                    stats["return_status"],
-                    int(stats["iter_count"]),
-                    clock.perf_counter() - start,
-                )
-            )
+        schedule = self.config.contacts.eps
+        start = bounds | {"x0": np.clip(x0, lbx, ubx)}
+        result = self._step(self.cold, start, schedule[0], "", steps, log)
+        if not steps[-1].solved:
+            note = "from where it stopped, warm-started"
             if log:
-                log(
-                    f"homotopy eps={eps:g}: {stats['return_status']}, "
-                    f"{stats['iter_count']} iterations, {steps[-1].seconds:.1f} s"
-                )
-            args["x0"] = result["x"]
-            if self.config.solver.warm_start:
-                args["lam_x0"], args["lam_g0"] = result["lam_x"], result["lam_g"]
+                log(f"homotopy eps={schedule[0]:g} unsolved ({steps[-1].status}): retrying {note}")
+            start = bounds | self._warm_start(result)
+            result = self._step(self._later, start, schedule[0], note, steps, log)
+        self._check(result, steps)
+        for previous, eps in itertools.pairwise(schedule):
+            start = bounds | self._warm_start(result)
+            result = self._step(self._later, start, eps, "", steps, log)
+            if not steps[-1].solved:
+                result = self._retry(start, previous, eps, steps, log)
+            self._check(result, steps)
         x = np.array(result["x"]).ravel()
         g = np.array(result["g"]).ravel()
         lay, n = self.problem.layout, self.problem.knots
-        worst = violation(g, lbg, ubg)
-        groups = self.problem.group_slices()
-        if steps[-1].status not in SUCCESS:
-            where = max(groups, key=lambda name: worst[groups[name]].max(initial=0.0))
-            raise TrajoptError(
-                f"scenario '{self.config.scenario.name}' is infeasible or unsolved: IPOPT status "
-                f"{steps[-1].status} after {sum(s.iterations for s in steps)} iterations; largest "
-                f"constraint violation {worst.max():.3g} (in '{where}')"
-            )
         return Solution(
             config=self.config,
             knots=lay.unpack(x[:-1].reshape(lay.size, n, order="F")),
             dt=float(x[-1]),
             x=x,
             constraint_values=g,
-            constraint_groups=groups,
+            constraint_groups=self.problem.group_slices(),
             lower=lbg,
             upper=ubg,
             steps=steps,
@@ -206,6 +214,91 @@ class Prepared:
             variables=len(x),
             constraints=len(g),
         )
+
+    @property
+    def _later(self) -> Any:
+        """The solver of the steps after the first: warm, or cold without the warm start."""
+        return self.warm if self.config.solver.warm_start else self.cold
+
+    def _warm_start(self, result: dict[str, Any]) -> dict[str, Any]:
+        """A later step's start: the solution `result` (and its multipliers when warm)."""
+        if not self.config.solver.warm_start:
+            return {"x0": result["x"]}
+        return {"x0": result["x"], "lam_x0": result["lam_x"], "lam_g0": result["lam_g"]}
+
+    def _step(
+        self,
+        solver: Any,
+        args: dict[str, Any],
+        eps: float,
+        retry: str,
+        steps: list[Step],
+        log: Callable[[str], None] | None,
+    ) -> dict[str, Any]:
+        """One IPOPT call at `eps` from `args`; its Step appended to `steps`."""
+        start = clock.perf_counter()
+        with interruptible():  # Ctrl-C and SIGTERM stop IPOPT and end the program
+            result = solver(**args, p=self.problem.functions.parameters(eps))
+        stats = solver.stats()
+        seconds = clock.perf_counter() - start
+        steps.append(Step(eps, stats["return_status"], int(stats["iter_count"]), seconds, retry))
+        if log:
+            log(
+                f"homotopy eps={eps:g}: {stats['return_status']}, {stats['iter_count']} "
+                f"iterations, {seconds:.1f} s" + (" (retry)" if retry else "")
+            )
+        return result
+
+    def _retry(
+        self,
+        start: dict[str, Any],
+        previous: float,
+        eps: float,
+        steps: list[Step],
+        log: Callable[[str], None] | None,
+    ) -> dict[str, Any]:
+        """The step from `previous` to `eps` again from its `start` (the solution at
+        `previous`), through values of eps at most RETRY_FACTOR apart; the last result."""
+        schedule = finer_schedule(previous, eps)
+        if log:
+            log(
+                f"homotopy eps={eps:g} unsolved ({steps[-1].status}): retrying from the "
+                f"solution at eps={previous:g} through eps=" + ", ".join(f"{v:g}" for v in schedule)
+            )
+        result: dict[str, Any] = {}
+        for value in schedule:
+            note = f"retry of eps={eps:g} from eps={previous:g}"
+            result = self._step(self._later, start, value, note, steps, log)
+            if not steps[-1].solved:
+                break
+            start = start | self._warm_start(result)
+        return result
+
+    def _check(self, result: dict[str, Any], steps: list[Step]) -> None:
+        """TrajoptError when the last step is unsolved: IPOPT's status, the iterations of
+        every step and the largest constraint violation with its group."""
+        if steps[-1].solved:
+            return
+        lbg, ubg = self.problem.constraint_bounds()
+        worst = violation(np.array(result["g"]).ravel(), lbg, ubg)
+        groups = self.problem.group_slices()
+        where = max(groups, key=lambda name: worst[groups[name]].max(initial=0.0))
+        retried = sum(step.iterations for step in steps if step.retry)
+        raise TrajoptError(
+            f"scenario '{self.config.scenario.name}' is infeasible or unsolved: IPOPT status "
+            f"{steps[-1].status} at eps={steps[-1].eps:g} after "
+            f"{sum(step.iterations for step in steps)} iterations"
+            + (f" ({retried} of them retrying)" if retried else "")
+            + f"; largest constraint violation {worst.max():.3g} (in '{where}')"
+        )
+
+
+def finer_schedule(previous: float, eps: float) -> list[float]:
+    """The eps values from `previous` (excluded) to `eps` (included), evenly spaced in
+    log(eps), each at most RETRY_FACTOR below the one before and at least two of them."""
+    ratio = np.log(previous / eps) / np.log(RETRY_FACTOR)
+    count = max(2, int(np.ceil(ratio - 1e-9)))
+    return [float(v) for v in np.geomspace(previous, eps, count + 1)[1:]]
 
 
 def solve(

@@ -248,9 +248,16 @@ def test_cluster_goes_to_the_retarget_and_library_batches(
     monkeypatch.setattr(
         batch, "run_retarget", lambda *a, **k: calls.append(("retarget", a[5])) or []
     )
-    monkeypatch.setattr(
-        runner, "solve_library", lambda *a, **k: calls.append(("library", k["cluster"])) or []
-    )
+
+    def solve_batch(tasks: list, configs: list, cache: Path, *args: object, **kwargs: object):
+        calls.append(("library", kwargs["cluster"]))
+        cache.mkdir(parents=True, exist_ok=True)
+        for name in runner.clip_files(t.name for t in tasks):
+            (cache / name).write_text(name)
+        figures = dict.fromkeys(runner.FIGURES, 1.0)
+        return [runner.Outcome(t.name, True, "solved", figures) for t in tasks]
+
+    monkeypatch.setattr(runner, "solve_batch", solve_batch)
     mocap = tmp_path / "mocap"
     mocap.mkdir()
     (mocap / "walk.bvh").write_text(mini_bvh(arms_down(40)))
@@ -266,3 +273,4 @@ def test_cluster_goes_to_the_retarget_and_library_batches(
     local = run_pipeline(config, tmp_path / "b", robot, mocap_dir=mocap, until="trajopt")
     assert calls[2:] == [("retarget", None), ("library", None)]
     assert [o.key for o in first] == [o.key for o in local]
+    assert len(list((tmp_path / "a" / "flight").glob("*.mcap"))) == 43
