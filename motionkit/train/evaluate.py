@@ -1,7 +1,9 @@
 """Evaluation: deterministic rollouts of the policy from standing starts (or, to find out what a
 policy does elsewhere, from prior frames and with action noise), their figures (task, gait,
-flight), and the first episode of environment 0 as a motion clip (MCAP) for the viewer; on a
-course, the clip records its terrain (`courses.clip_terrain`) for the viewer to draw."""
+flight, and the take-off and landing times of `figures.transition_figures`), and the first
+episode of environment 0 as a motion clip (MCAP) for the viewer, with the commanded throttle
+of fitted jets; on a course, the clip records its terrain (`courses.clip_terrain`) for the
+viewer to draw."""
 
 from __future__ import annotations
 
@@ -15,10 +17,11 @@ import numpy as np
 from motionkit.dataset import Metadata, Source, Trajectory, write
 from motionkit.robot import Robot
 from motionkit.robot.geometry import angular_velocity
+from motionkit.train.env import Env
 from motionkit.train.env.courses import CourseLayout, clip_terrain
 from motionkit.train.env.rewards import style_reward
-from motionkit.train.figures import rollout_figures
-from motionkit.train.learner import Learner, Trainer
+from motionkit.train.figures import rollout_figures, transition_figures
+from motionkit.train.learner import Learner, Rollout, Trainer
 
 KEPT = ("qpos", "target")  # kept for environment 0 alone: its clip is saved
 TERRAIN_MARGIN = 1.5  # m of a course's grid a clip records about its path and waypoints
@@ -35,8 +38,10 @@ def evaluate(
     noise: float = 0.0,
     tile: tuple[int, int] | None = None,
 ) -> tuple[dict[str, float], dict[str, np.ndarray]]:
-    """`chunks` rollouts of rollout_steps, their figures (`rollout_figures`, prefixed "eval_")
-    and the arrays: every StepInfo field but DROPPED, the thrust, and KEPT for environment 0.
+    """`chunks` rollouts of rollout_steps, their figures (`rollout_figures` and
+    `transition_figures`, prefixed "eval_") and the arrays: every StepInfo field but DROPPED,
+    the thrust, the jets' mean command ("command", `Jets.command_share`), and KEPT (with
+    fitted jets also the throttle [%]) for environment 0.
     A run with priors adds the discriminator's view of the rollout's transitions: its accuracy
     on them (the share it tells from the priors') and their mean style reward.
 
@@ -50,7 +55,7 @@ def evaluate(
     k_reset, k_run = jax.random.split(key)
     keys = jax.random.split(k_reset, trainer.config.ppo.num_envs)
     state = trainer.reset_evaluation(keys, prior_share, tile)
-    infos, thrust, kept, logits = [], [], {name: [] for name in KEPT}, []
+    infos, records, logits = [], [], []
     for k in jax.random.split(k_run, chunks):
         state, batch = trainer.rollout(learner, state, k, jnp.array(noise))
         if trainer.config.priors:
@@ -58,21 +63,33 @@ def evaluate(
             logits.append(np.asarray(trainer.style.net.apply(learner.disc, chi, chi_next)))
         empty = {name: np.zeros((*batch.info.done.shape, 0)) for name in DROPPED}
         infos.append(jax.tree.map(np.asarray, batch.info.replace(**empty)))
-        thrust.append(np.asarray(batch.thrust))
-        for name in KEPT:
-            kept[name].append(np.asarray(getattr(batch, name)[:, :1]))
+        records.append(_records(trainer.env, batch))
     info = jax.tree.map(lambda *x: np.concatenate(x), *infos)
     arrays = {name: np.asarray(getattr(info, name)) for name in info.__dataclass_fields__}
-    arrays |= {"thrust": np.concatenate(thrust)} | {k: np.concatenate(v) for k, v in kept.items()}
-    hz = trainer.config.env.control_hz
-    kinds = trainer.env.kinds
-    figures = rollout_figures(info, arrays["thrust"], trainer.env.t_max, hz, kinds, levels=False)
+    arrays |= {name: np.concatenate([r[name] for r in records]) for name in records[0]}
+    env, hz = trainer.env, trainer.config.env.control_hz
+    figures = rollout_figures(info, arrays["thrust"], env.t_max, hz, env.kinds, levels=False)
+    air_level = 0.5 * (env.config.ground_height + env.config.air_height[0])  # waypoints.in_air
+    figures |= transition_figures(arrays, arrays["command"], air_level, hz)
     metrics = {f"eval_{name}": float(value) for name, value in figures.items()}
     if logits:
         scale = trainer.config.amp.style_scale
         metrics["eval_disc_policy_accuracy"] = float(np.mean(np.concatenate(logits) < 0))
         metrics["eval_style_reward"] = float(jnp.mean(style_reward(jnp.array(logits), scale)))
     return metrics | {"eval_ground_share": 1.0 - metrics["eval_airborne_share"]}, arrays
+
+
+def _records(env: Env, batch: Rollout) -> dict[str, np.ndarray]:
+    """The thrust, the jets' mean command (share of its range above rest) and KEPT of one
+    rollout, with the throttle [%] of environment 0 for fitted jets."""
+    jets = env.jets
+    actions = np.asarray(batch.actions[..., env.num_joints :])
+    thrust = np.asarray(batch.thrust)
+    out = {"thrust": thrust, "command": np.asarray(jets.command_share(actions, thrust)).mean(-1)}
+    out |= {name: np.asarray(getattr(batch, name)[:, :1]) for name in KEPT}
+    if jets.fitted:
+        out["throttle"] = np.asarray(jets.throttle(np.clip(actions[:, :1], -1.0, 1.0)))
+    return out
 
 
 def first_episode(
@@ -118,6 +135,7 @@ def first_episode(
         base_linear_velocity=np.gradient(qpos[:, :3], time, axis=0),
         base_angular_velocity=angular_velocity(time, orientation),
         thrust=arrays["thrust"][:end, 0],
+        throttle=arrays["throttle"][:end, 0] if "throttle" in arrays else None,
         contacts=arrays["feet_down"][:end, 0],
         jet_names=tuple(jet.name for jet in spec.jets),
         foot_names=tuple(foot.side for foot in spec.feet),

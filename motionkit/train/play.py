@@ -14,6 +14,10 @@ waypoint (not with a watcher: a live viewer may place more), at a fall (the base
 `min_base_height` above the surface, a pit read as its rim, or a non-finite state) or after
 `seconds`.
 
+With fitted jets (`[env] jet` other than "ideal") the clip holds the commanded throttle [%] of
+every jet (its throttle channel) beside the thrust the jet model gave, so that a viewer shows
+the engines' lag; the ideal jet has no throttle.
+
 On a terrain (`terrain="KIND[:LEVEL]"`, a policy of the terrain scenario) the robot plays on a
 course training did not use (`courses.held_out`, numbered by `seed`): it starts on the pad of
 that tile (without a level, the hardest), waypoints given are relative to the tile's centre in
@@ -75,12 +79,13 @@ class Player:
             return jet, thrust, ctrl
 
         self._observe, self._control = jax.jit(observe), jax.jit(control)
+        self.throttle: np.ndarray | None = None  # [%] per jet of the last step (fitted jets)
         self.reset(*self.standing())
 
     def standing(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(qpos, qvel, thrust) of the standing pose: the keyframe at the environment's standing
         posture (no joint noise) moved to the spawn point on the ground, at rest, the jets at
-        the low end of initial_thrust."""
+        the low end of initial_thrust (fitted jets: at idle, as the environment starts them)."""
         env = self.env
         qpos = self.model.key("stand").qpos.copy()
         qpos[7:] = np.asarray(env.default_q)
@@ -88,7 +93,7 @@ class Player:
             ground = terrain_lib.height_at(env.terrain, jnp.asarray(self.spawn, jnp.float32))
             qpos[:3] += [*self.spawn, float(ground)]
         thrust = np.minimum(env.config.initial_thrust[0], np.asarray(env.t_max))
-        return qpos, np.zeros(self.model.nv), thrust
+        return qpos, np.zeros(self.model.nv), np.maximum(thrust, env.jets.idle)
 
     def reset(self, qpos: np.ndarray, qvel: np.ndarray, thrust: np.ndarray) -> None:
         """Start at this state (as an episode of the environment starts: the keyframe's other
@@ -111,9 +116,13 @@ class Player:
 
     def step(self, action: Any) -> None:
         """One control step: jets and PD targets from `action`, then the environment's
-        substeps of MuJoCo physics."""
+        substeps of MuJoCo physics; `throttle` holds the fitted jets' commanded throttle."""
         self.jet, self.thrust, ctrl = self.control(action)
         self.kinematics = self.physics.step(np.asarray(ctrl)[None])
+        env = self.env
+        if env.jets.fitted:
+            jets = np.clip(np.asarray(action, np.float32)[env.num_joints :], -1.0, 1.0)
+            self.throttle = np.asarray(env.jets.throttle(jets), np.float32)
 
 
 @dataclass
@@ -158,6 +167,7 @@ class Played:
     legs: list[Leg]
     qpos: list[np.ndarray] = field(default_factory=list)
     thrust: list[np.ndarray] = field(default_factory=list)
+    throttle: list[np.ndarray] = field(default_factory=list)  # commanded [%] (fitted jets)
     target: list[np.ndarray] = field(default_factory=list)  # pursued during the step
     feet_down: list[np.ndarray] = field(default_factory=list)  # after the step
     end: str = "at the time limit"  # how the run ended, after "ended"
@@ -178,6 +188,16 @@ class Played:
     def real_time_factor(self) -> float:
         return self.seconds / self.wall_seconds if self.wall_seconds > 0 else float("inf")
 
+    def record(
+        self, qpos: np.ndarray, thrust: np.ndarray, throttle: np.ndarray | None, target: np.ndarray
+    ) -> None:
+        """Keep a frame (the throttle only with fitted jets)."""
+        self.qpos.append(qpos.copy())
+        self.thrust.append(thrust)
+        if throttle is not None:
+            self.throttle.append(throttle)
+        self.target.append(target)
+
     def arrays(self) -> dict[str, np.ndarray]:
         """Time-major (T, 1, ...) arrays shaped like an evaluation's, for `first_episode`."""
         rows = {
@@ -186,6 +206,8 @@ class Played:
             "target": self.target,
             "feet_down": self.feet_down,
         }
+        if self.throttle:
+            rows["throttle"] = self.throttle
         out = {name: np.stack(value)[:, None] for name, value in rows.items()}
         out["done"] = np.zeros((self.frames, 1), bool)
         if self.tile is not None:
@@ -235,9 +257,7 @@ def roll_out(
             break
         now = (k + 1) / hz
         thrust = np.asarray(player.thrust)
-        played.qpos.append(qpos.copy())
-        played.thrust.append(thrust)
-        played.target.append(target)
+        played.record(qpos, thrust, player.throttle, target)
         leg = legs[index] if index < len(legs) else None
         if leg is not None:
             leg.steps += 1

@@ -30,12 +30,15 @@ Output: OUT/NAME.mcap, a motion clip (`motionkit dataset validate`, `motionkit v
 waypoints in its metadata. Printed: per waypoint when it was reached, walking or flying (the
 share of the way with both soles off the ground), the share on one foot and the contact
 switches per foot per second, the mean thrust; falls; the real-time factor (simulated / wall
-seconds, compilation not counted).
+seconds, compilation not counted). With fitted jets ([env] jet = "lstm", "grey_box" or
+"selected") the clip also holds each jet's commanded throttle [%] beside its thrust, and
+`motionkit view` shows both per jet (the engines' lag).
 
   motionkit play --waypoints "1.5,0,0.6 3,1,0.6" --out plays   # the shipped policy
 
   motionkit play --policy runs/tiny --waypoints "1,0,0.6 1,1,1.2" --out plays
   motionkit play --policy policies/walk_fly --random-route 6 --seed 3 --out plays
+  motionkit play --policy runs/walk_fly_jets --waypoints "1.5,0,0.6 3,1,1.2" --out plays
   motionkit play --policy runs/tiny --view --seconds 60 --out plays   # place waypoints by clicks
 
 On a terrain (--terrain KIND[:LEVEL], a policy of the terrain scenario): the robot starts on

@@ -23,6 +23,7 @@ from motionkit.core.errors import ViewerError
 from motionkit.dataset import Trajectory, corner_names
 from motionkit.robot import Robot
 from motionkit.robot.geometry import Array
+from motionkit.viewer.engines import EngineBars, engine_shares, lag_plot
 from motionkit.viewer.meshes import LinkMesh, robot_meshes
 from motionkit.viewer.playback import Playback
 from motionkit.viewer.scene import FORCE_SCALE, FrameState, RobotScene
@@ -90,6 +91,9 @@ class ViewerApp:
         self.rate = 0.0  # Hz, of the clip shown
         self.forces: Array | None = None
         self.skeleton: SkeletonOverlay | None = None
+        self.engines: EngineBars | None = None  # the clip's throttle and thrust per jet
+        self.lag_plots: list[viser.GuiUplotHandle] = []
+        self.t_max = np.array([jet.t_max for jet in robot.spec.jets], float)
         self._description = ""
         self.index = 0
         if self.motion is not None:
@@ -261,6 +265,7 @@ class ViewerApp:
         self.forces = contact_forces(motion, corner_names(self.robot))
         self.show_forces.disabled = self.forces is None
         self._set_skeleton(motion)
+        self._set_engines(motion)
         self.playback = Playback(motion.time, float(self.speed.value), self.loop.value)
         self.rate = motion.rate
         step = 1.0 / self.rate if self.rate > 0 else 0.01
@@ -290,6 +295,14 @@ class ViewerApp:
         self.skeleton = SkeletonOverlay(
             self.server, motion.landmark_parents, offset, self.show_skeleton.value
         )
+
+    def _set_engines(self, motion: Trajectory) -> None:
+        """Two bars per jet, throttle and thrust, for a clip with a throttle (none without)."""
+        if self.engines is not None:
+            self.engines.remove()
+            self.engines = None
+        if engine_shares(motion, self.t_max) is not None:
+            self.engines = EngineBars(self.server.gui, motion.jet_names, self.t_max)
 
     def _describe_overlays(self) -> None:
         """The clip's description, and which of its skeleton and contact forces are shown."""
@@ -363,9 +376,16 @@ class ViewerApp:
                     values = [motion.joint_positions[rows, c].astype(float) for c in columns]
                     _plot(gui, title, time, series, values)
             if motion.thrust.shape[1]:
-                t_max = np.array([jet.t_max for jet in self.robot.spec.jets])
+                t_max = self.t_max
                 shares = [motion.thrust[rows, j] / t_max[j] for j in range(len(t_max))]
                 _plot(gui, "thrust T/T_max", time, list(motion.jet_names), shares)
+            engines = engine_shares(motion, self.t_max)
+            self.lag_plots = []
+            if engines is not None:
+                throttle, thrust = engines
+                for j, name in enumerate(motion.jet_names):
+                    plot = lag_plot(gui, name, time, throttle[rows, j], thrust[rows, j])
+                    self.lag_plots.append(plot)
 
     def _show(self, frame: int) -> None:
         motion = self.motion
@@ -380,6 +400,9 @@ class ViewerApp:
         )
         with self.server.atomic():
             self.scene.show(state)
+            if self.engines is not None:
+                assert motion.throttle is not None
+                self.engines.show(motion.throttle[frame], motion.thrust[frame])
             if self.skeleton is not None and self.skeleton.visible:
                 assert motion.landmarks is not None
                 self.skeleton.show(motion.landmarks[frame])

@@ -24,8 +24,11 @@ The page plays the motion (timeline, play/pause, speed, loop, clip picker), draw
 (length proportional to T/T_max, along the exhaust), sole corners green in contact, the centre of
 mass, the waypoints of rollouts, the planned contact forces of optimised flights (an arrow per sole
 corner, 0.5 m per body weight) and the scaled human skeleton of retargeted clips (beside the robot,
---skeleton-offset metres to its left), and plots joint angles and thrust. --robot shows the
-model alone with a slider per joint and the named frames (soles, sole corners, jets, elbows)."""
+--skeleton-offset metres to its left), and plots joint angles and thrust. A clip with a
+throttle channel (fitted jets: `motionkit play`, evaluation rollouts; optimised flights) also
+shows the engines' lag: per jet, the commanded throttle and the thrust as two bars at the
+current frame (folder "Engines") and as a time plot. --robot shows the model alone with a
+slider per joint and the named frames (soles, sole corners, jets, elbows)."""
 
 
 def add_commands(stages: argparse._SubParsersAction, robot_source: Any) -> None:

@@ -4,8 +4,10 @@ jet resting at a given thrust, so that an episode can start mid-flight.
 
 Actions in [-1, 1] map to the jet input: the ideal jet's thrust rate a * thrust_rate_max
 (jet_action "rate") or its thrust set point (a + 1) / 2 * T_max, approached at up to
-thrust_rate_max ("thrust"), or the fitted model's throttle 50 + 50 a [%]. The rest action
-holds the thrust (rate) or sets it to 0 (set point, throttle: the fitted models idle).
+thrust_rate_max ("thrust"), or the fitted model's throttle u = u_min + (100 - u_min) (a + 1) / 2
+[%] with u_min = throttle_min (0: 50 + 50 a). The rest action holds the thrust (rate) or sets
+it to 0 (set point), or the throttle to its floor u_min (the fitted models idle there: their
+idle thrust is the steady thrust at the floor).
 """
 
 from __future__ import annotations
@@ -26,7 +28,9 @@ from motionkit.jet_ident.step import (
 )
 from motionkit.train.config import EnvConfig
 
-THROTTLES = np.linspace(0.0, 100.0, 21)  # % at which the model's steady thrust is tabulated
+# % at which the model's steady thrust is tabulated (from the floor, throttle_min, to 100 %
+# in as many steps: `Jets.throttles`)
+THROTTLES = np.linspace(0.0, 100.0, 21)
 TABLE_SIZE = 64  # thrusts at which the resting model state is tabulated
 SETTLE_SECONDS = 30.0  # long enough for the thrust of a P250 model to settle
 
@@ -57,18 +61,40 @@ class Jets:
                 self.params = self.params.replace(
                     delay=round(model.delay * model.dt / self.params.dt)
                 )
-            steady = np.maximum.accumulate(self._steady_thrust(THROTTLES))
-            self.idle = float(max(steady[0], 0.0))
-            self.rest_action = -1.0  # 0 % throttle
+            self.floor = config.throttle_min
+            self.throttles = np.linspace(self.floor, 100.0, len(THROTTLES))
+            steady = np.maximum.accumulate(self._steady_thrust(self.throttles))
+            self.idle = float(max(steady[0], 0.0))  # the steady thrust at the floor
+            self.rest_action = -1.0  # the floor
             self._table = self._resting_states(steady)
         else:
             self.steps = 1
             self.params = IdealThrust(
                 dt=config.control_dt, t_max=float(np.max(t_max)), rate_max=config.thrust_rate_max
             )
+            self.floor, self.throttles = 0.0, None
             self.idle = 0.0
             self.rest_action = 0.0 if config.jet_action == "rate" else -1.0  # hold, or 0 N
             self._table = None
+
+    @property
+    def fitted(self) -> bool:
+        """Whether the jets are a fitted model (LSTM or grey box) driven by a throttle."""
+        return not isinstance(self.params, IdealThrust)
+
+    def throttle(self, action: jax.Array) -> jax.Array:
+        """The fitted models' throttle [%] of jet actions in [-1, 1]: the floor at -1, 100 at
+        1, linear between."""
+        return self.floor + (100.0 - self.floor) * (action + 1.0) / 2.0
+
+    def command_share(self, action: jax.Array, thrust: jax.Array) -> jax.Array:
+        """The jets' command per jet as a share of its range above rest, in [0, 1]: the
+        throttle above the floor (fitted jets) or the thrust set point per T_max (ideal jet,
+        jet_action "thrust"). The ideal jet's rate action sets no level: its thrust per
+        T_max instead."""
+        if not self.fitted and self.config.jet_action == "rate":
+            return thrust / self.t_max
+        return (jnp.clip(action, -1.0, 1.0) + 1.0) / 2.0
 
     def _steady_thrust(self, throttles: np.ndarray) -> np.ndarray:
         """The thrust [N] the model settles at under each constant throttle, from rest."""
@@ -87,10 +113,13 @@ class Jets:
 
     def _resting_states(self, steady: np.ndarray) -> tuple[jax.Array, ...]:
         """(thrusts, *state): the model state of a jet resting at each tabulated thrust, under
-        the throttle that holds it there (from the steady-state curve)."""
+        the throttle that holds it there (from the steady-state curve `steady` at
+        `self.throttles`); a thrust at or below the floor's steady thrust rests at the floor."""
         thrusts = np.linspace(0.0, float(jnp.max(self.t_max)), TABLE_SIZE)
-        # at or below idle the jet rests at 0 %; where the curve is flat, within the flat part
-        throttles = np.where(thrusts <= steady[0], 0.0, np.interp(thrusts, steady, THROTTLES))
+        # at or below idle the jet rests at the floor; where the curve is flat, within the
+        # flat part
+        held = np.interp(thrusts, steady, self.throttles)
+        throttles = np.where(thrusts <= steady[0], self.floor, held)
         rest = jax.vmap(lambda t, u: initial_state(self.params, t, u))
         states = rest(jnp.asarray(thrusts, jnp.float32), jnp.asarray(throttles, jnp.float32))
         return (jnp.asarray(thrusts, jnp.float32), *states)
@@ -118,7 +147,7 @@ class Jets:
         elif isinstance(self.params, IdealThrust):  # the rate toward the set point (clipped)
             u = ((action + 1.0) / 2.0 * self.t_max - thrust) / self.params.dt
         else:
-            u = 50.0 + 50.0 * action
+            u = self.throttle(action)
         per_jet = jax.vmap(thrust_next, in_axes=(None, 0, 0, 0))
         for _ in range(self.steps):
             state, thrust = per_jet(self.params, state, thrust, u)

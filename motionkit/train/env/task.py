@@ -10,6 +10,8 @@ Resets: with probability `reset_from_prior` an episode starts in a frame of the 
 (reference state initialisation): the frame's base pose moved to the spawn point and turned to
 a random heading, its velocities, joints and thrust, and the jet model resting at that thrust;
 a start with both soles off the ground gets an air waypoint. Otherwise it starts standing.
+Fitted jets start at least at their idle thrust (`Jets.idle`, the steady thrust at the
+throttle floor): a walking clip's 0 N is an idling engine.
 
 Observation (all in the base's heading frame or base frame): the blocks of the AMP features
 (`motionkit.dataset.amp.FeatureLayout`: heading-free base orientation (4), base linear and
@@ -113,6 +115,7 @@ class StepInfo:
     over_hole: jax.Array  # the base is over a pit or a gap after the step
     moved: jax.Array  # horizontal distance the base moved in the step [m]
     route_done: jax.Array  # the route's waypoints were all reached in turn, none missed
+    base_lift: jax.Array  # the base's height above the surface after the step [m]
 
 
 @struct.dataclass
@@ -384,6 +387,7 @@ class Env:
             )
             origin = jnp.where(use, index, origin)
             airborne = use & frame[3]
+        thrust = jnp.maximum(thrust, self.jets.idle)  # a fitted jet runs at least at idle
         target = self.next_waypoint(
             k_target,
             qpos[:3],
@@ -582,6 +586,7 @@ class Env:
             over_hole=terrain_lib.over_hole(self.terrain, base[:2]),
             moved=jnp.linalg.norm(base[:2] - state.data.qpos[:2]),
             route_done=route_done,
+            base_lift=jnp.where(finite, lift, 0.0),
         )
         stepped = state.replace(
             data=data,
