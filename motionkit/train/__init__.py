@@ -7,7 +7,7 @@ spec.
     robot = load_robot("robot.urdf", "robot.toml")       # no arguments: iRonCub
     config = TrainConfig.from_toml("train/tiny_cpu.toml").select_priors([])
     summary = train_policy(config, out, robot)           # OUT/summary.json, rollouts/, ...
-    figures = run_ablation(config, out, robot)           # the four prior settings
+    result = run_ablation(config, out, robot, seeds=[0, 1])  # the four prior arms x seeds
     export_policy(out, "policy", robot)                  # the small policy package
     draw_curves(out)                                     # OUT/curves.png
     played, route = play_policy(load_policy("policy"), robot, Path("play.mcap"))

@@ -77,6 +77,14 @@ def add_commands(
         "machine) in --out, which gets a copy of it",
     )
     parser.add_argument(
+        "--init-from",
+        metavar="POLICY",
+        help="a new run whose actor starts as this policy's (a shipped name such as walk_fly, "
+        "an exported policy folder or a run folder): its layers and observation normaliser; "
+        "the critic, action std and discriminator start afresh. A flat-ground policy is "
+        "widened to a terrain recipe's height map (it acts as before on flat ground)",
+    )
+    parser.add_argument(
         "--jets-at-rest",
         action="store_true",
         help="with --resume-from: the policy's jet outputs start at the rest action (their "
@@ -85,20 +93,7 @@ def add_commands(
     )
     parser.set_defaults(handler=_train)
     actions = parser.add_subparsers(dest="train_command", metavar="ACTION")
-    ablation = actions.add_parser(
-        "ablation",
-        help="train with walk+flight, walk, flight and no priors; draw the radar chart",
-        description="Run the paper's prior ablation: the same config trained four times (both "
-        "priors, walk only, flight only, none) into OUT/<setting>/ (a setting whose run "
-        "finished is kept), then compare their final evaluations: the radar chart "
-        "OUT/ablation.png (episode duration, reward, thrust usage), a table OUT/ablation.md "
-        "(those and waypoints per episode, airborne share, falls, speed to the waypoint; also "
-        "printed) and every figure in OUT/ablation.json.",
-        epilog=EPILOG,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    _common(ablation, robot_source, priors=False)
-    ablation.set_defaults(handler=_ablation)
+    _add_ablation(actions, robot_source)
     export = actions.add_parser(
         "export",
         help="write a run's policy as a small package for `motionkit play` (at most 2 MB)",
@@ -215,6 +210,62 @@ def add_commands(
     curves.set_defaults(handler=_curves)
 
 
+def _add_ablation(
+    actions: argparse._SubParsersAction, robot_source: Callable[[argparse.ArgumentParser], None]
+) -> None:
+    """`motionkit train ablation`."""
+    ablation = actions.add_parser(
+        "ablation",
+        help="train walk+flight, walk, flight and no prior over seeds; table, radar, curves",
+        description="Run the paper's prior ablation: the same config trained with both priors "
+        "(walk+flight), walk only, flight only and no prior (none), each with every seed of "
+        "--seeds, into OUT/<arm>/seed_<s>/ ('+' as '_'), one run at a time, seed-major (every "
+        "arm with the first seed, then the next), so that a call cut short has one seed of "
+        "every arm first. A prior an arm drops is dropped from the curriculum stages' weights "
+        "too. After each run and at the end it writes OUT/ablation.json (every run's final "
+        "evaluation, per arm and seed), OUT/ablation.md (the table, also printed: per arm the "
+        "mean [min, max] over its finished runs of the episode duration over the maximum "
+        "episode length, the task reward over the largest of the runs, the thrust usage "
+        "1 - T/T_max (1: jets off), waypoints per episode, airborne share on the way to ground "
+        "and to air waypoints, falls per episode), OUT/ablation.png (the radar chart of the "
+        "first three: per arm the mean and a min-max band) and OUT/ablation_curves.png (every "
+        "run's evaluations over env-steps, per arm the mean and min-max band).",
+        epilog="""\
+Resuming: an OUT that holds runs is refused without --resume. With it, a finished run
+(summary.json, and its checkpoint at [run] iterations) is kept, an unfinished one (a
+checkpoint short of them: stopped by [run] max_minutes, by --max-minutes or interrupted)
+goes on from its checkpoint, and one not begun starts. [run] max_minutes bounds each
+run's part of a call; --max-minutes bounds the whole call: the run in training when it
+is spent stops (its checkpoint saved, evaluated) and no run starts after it.
+
+  motionkit train ablation --config walk_fly_cpu --seeds 0,1 --out runs/ablation --max-minutes 120
+  motionkit train ablation --config walk_fly_cpu --seeds 0,1 --out runs/ablation --resume
+  motionkit train ablation --config paper_gpu --seeds 0,1,2 --out runs/ablation_gpu""",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    _common(ablation, robot_source, priors=False)
+    ablation.add_argument(
+        "--seeds",
+        type=_seeds,
+        metavar="S,S,...",
+        help="comma-separated seeds; each arm trains once per seed (default: --seed, or the "
+        "config's [run] seed)",
+    )
+    ablation.add_argument(
+        "--resume",
+        action="store_true",
+        help="go on with the runs in --out: keep the finished, resume the unfinished",
+    )
+    ablation.add_argument(
+        "--max-minutes",
+        type=float,
+        default=0.0,
+        metavar="M",
+        help="wall time of this whole call in minutes (default 0: none); --resume goes on",
+    )
+    ablation.set_defaults(handler=_ablation)
+
+
 def _common(
     parser: argparse.ArgumentParser,
     robot_source: Callable[[argparse.ArgumentParser], None],
@@ -298,8 +349,17 @@ def _train(args: argparse.Namespace) -> int:
     robot = load_robot(args.urdf, args.spec)
     enable_compile_cache()
     resume = args.resume
-    if args.jets_at_rest and args.resume_from is None:
-        raise TrainError("--jets-at-rest needs --resume-from CHECKPOINT (another run's)")
+    if args.jets_at_rest and args.resume_from is None and args.init_from is None:
+        raise TrainError(
+            "--jets-at-rest needs --resume-from CHECKPOINT (another run's) or --init-from POLICY"
+        )
+    init_from = None
+    if args.init_from is not None:
+        if resume or args.resume_from is not None:
+            raise TrainError("--init-from starts a new run: drop --resume / --resume-from")
+        from motionkit.train.policy import load_policy
+
+        init_from = load_policy(args.init_from)
     if args.resume_from is not None:
         from motionkit.train.checkpoint import place_checkpoint
 
@@ -313,22 +373,52 @@ def _train(args: argparse.Namespace) -> int:
             )
         resume = True
     summary = train(
-        config, args.out, robot, resume=resume, jets_at_rest=args.jets_at_rest, progress=_print
+        config,
+        args.out,
+        robot,
+        resume=resume,
+        jets_at_rest=args.jets_at_rest,
+        init_from=init_from,
+        progress=_print,
     )
     print(f"wrote {args.out}: {summary['iterations']} iterations in {summary['seconds']:.0f} s")
     return 0
 
 
+def _seeds(text: str) -> list[int]:
+    """`--seeds` as a list of distinct seeds >= 0."""
+    try:
+        seeds = [int(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        seeds = []
+    if not seeds or min(seeds) < 0 or len(set(seeds)) != len(seeds):
+        raise argparse.ArgumentTypeError(f"{text!r}: expected distinct seeds >= 0, e.g. 0,1")
+    return seeds
+
+
 def _ablation(args: argparse.Namespace) -> int:
     require_train_extra()
-    from motionkit.train.ablation import run_ablation
+    from motionkit.train.ablation import OUTPUTS, run_ablation
 
+    if args.seeds is not None and args.seed is not None:
+        raise TrainError("pass --seeds or --seed, not both")
+    if args.max_minutes < 0:
+        raise TrainError(f"--max-minutes {args.max_minutes}: expected >= 0 (0: no limit)")
     config = _config(args)
     robot = load_robot(args.urdf, args.spec)
     enable_compile_cache()
-    result = run_ablation(config, args.out, robot, progress=_print)
+    result = run_ablation(
+        config,
+        args.out,
+        robot,
+        args.seeds,
+        resume=args.resume,
+        max_minutes=args.max_minutes,
+        progress=_print,
+    )
     print(result["table"], end="")
-    print(f"wrote {args.out}/ablation.json, ablation.md and ablation.png")
+    written = [name for name in OUTPUTS if (args.out / name).is_file()]
+    print(f"wrote {', '.join(written)} in {args.out}")
     return 0
 
 

@@ -50,6 +50,10 @@ class EnvConfig:
     # the ideal jet's action: "rate": the thrust rate a * thrust_rate_max; "thrust": the thrust
     # set point (a + 1) / 2 * T_max, approached at up to thrust_rate_max (as a throttle is)
     jet_action: str = "rate"
+    # the fitted models' least throttle [%], in [0, 100): action a in [-1, 1] gives the
+    # throttle throttle_min + (100 - throttle_min) (a + 1) / 2, the rest action (-1) the floor
+    # (the paper's LSTM variant: 15 %, about 40 N per P250 engine)
+    throttle_min: float = 0.0
     initial_thrust: tuple[float, float] = (0.0, 0.0)  # N per jet at a standing reset (ideal jet)
     # the share of T_max the (ideal) jets may give: 0 holds them off, as in walking stages where
     # thrust would steady a shuffle instead of the legs learning to step
@@ -139,6 +143,14 @@ class EnvConfig:
         if self.jet != "ideal" and self.thrust_limit != 1.0:
             raise TrainError(
                 "'thrust_limit' needs jet = 'ideal' (a fitted jet's thrust is its own)"
+            )
+        if not (math.isfinite(self.throttle_min) and 0.0 <= self.throttle_min < 100.0):
+            expected = "finite and in [0, 100) %"
+            raise refusal(TrainError, "throttle_min", expected, self.throttle_min)
+        if self.jet == "ideal" and self.throttle_min != 0.0:
+            raise TrainError(
+                "'throttle_min' needs a fitted jet (jet other than 'ideal'; the ideal jet has no "
+                "throttle)"
             )
         if self.jet != "ideal" and self.initial_thrust != (0.0, 0.0):
             raise TrainError("'initial_thrust' needs jet = 'ideal' (the LSTM starts at idle)")
@@ -318,7 +330,8 @@ FIXED_KEYS = {"ppo": ("actor_hidden", "critic_hidden"), "amp": ("hidden",)}
 class StageConfig:
     """One stage of a curriculum ([curriculum.NAME], in the recipe's order): the keys of
     [env], [reward], [ppo] and [amp] it changes from the recipe's, the priors' weights, and
-    when it ends: at the first evaluation that meets every goal (`hold` evaluations in a row)
+    when it ends: at the first evaluation that meets every goal (`hold` evaluations in a row;
+    a goal on a training figure uses its mean since the previous evaluation)
     once `min_iterations` have run in the stage, or after `max_iterations` (0: no limit; the
     last stage runs to [run] iterations)."""
 
@@ -327,7 +340,8 @@ class StageConfig:
     ppo: dict[str, Any] = field(default_factory=dict)
     amp: dict[str, Any] = field(default_factory=dict)
     priors: dict[str, float] = field(default_factory=dict)  # prior name -> weight
-    # evaluation figure (an eval.csv column) -> ">= x" or "<= x"
+    # figure -> ">= x" or "<= x": an eval.csv column, or a train.csv column (its mean since
+    # the previous evaluation)
     goals: dict[str, str] = field(default_factory=dict)
     hold: int = 1  # evaluations in a row that must meet the goals
     min_iterations: int = 0

@@ -4,7 +4,9 @@ checkpoint so that a resumed run goes on in the stage its checkpoint was in).
 
 A stage ends at the first evaluation that meets all its goals (for `hold` evaluations in a row,
 after `min_iterations` in the stage), or after `max_iterations` in it; the last stage runs to
-the end of the run.
+the end of the run. A goal names an evaluation figure (an eval.csv column, deterministic) or a
+training figure (a train.csv column: its mean over the iterations since the previous
+evaluation, under the policy's exploration noise).
 """
 
 from __future__ import annotations
@@ -41,14 +43,24 @@ def stage_config(config: TrainConfig, state: CurriculumState) -> TrainConfig:
     return config.stage(names[state.stage]) if names else config
 
 
+def goal_figures(evaluation: dict[str, float], window: list[dict[str, float]]) -> dict[str, float]:
+    """The figures goals may name: the evaluation's, and each training figure's mean over
+    `window` (the iterations since the previous evaluation; non-finite values left out)."""
+    figures = dict(evaluation)
+    for name in {name for row in window for name in row}:
+        values = [row[name] for row in window if math.isfinite(row.get(name, math.nan))]
+        figures[name] = sum(values) / len(values) if values else math.nan
+    return figures
+
+
 def goals_met(stage: StageConfig, evaluation: dict[str, float]) -> list[str]:
-    """The goals an evaluation meets, as 'figure value op x' lines; TrainError for a goal on a
-    figure the evaluation does not report."""
+    """The goals met by `evaluation` (`goal_figures`), as 'figure value op x' lines;
+    TrainError for a goal on a figure it does not hold."""
     met = []
     for name, goal in stage.goals.items():
         if name not in evaluation:
             raise TrainError(
-                f"curriculum goal on {name!r}: no such evaluation figure "
+                f"curriculum goal on {name!r}: no such evaluation or training figure "
                 f"(known: {', '.join(sorted(evaluation))})"
             )
         operator, threshold = parse_goal(name, goal)

@@ -102,7 +102,7 @@ def draw_curves(run: Path, path: Path | None = None) -> Path:
             ax.axvline(switch, color="grey", linestyle=":", linewidth=1)
         ax.set_title(title, fontsize=10)
         ax.grid(alpha=0.3)
-        if len(columns) > 1:
+        if len(columns) > 1 and ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=8)
     for ax in list(axes.flat[: len(panels)])[-3:]:  # the lowest panel of each column
         ax.set_xlabel("env-steps [M]")

@@ -80,11 +80,17 @@ def shipped_policies() -> list[Path]:
     return sorted(p for p in SHIPPED.iterdir() if (p / PARAMS).is_file())
 
 
+DEFAULT = "walk_fly"  # the shipped policy `play` runs without --policy, when several ship
+
+
 def default_policy() -> Path:
-    """The shipped policy; a TrainError when none (or several) ships."""
+    """The shipped policy (DEFAULT where several ship); a TrainError when none ships, or
+    several without DEFAULT."""
     found = shipped_policies()
     if len(found) == 1:
         return found[0]
+    if SHIPPED / DEFAULT in found:
+        return SHIPPED / DEFAULT
     if not found:
         raise TrainError(
             "no trained policy ships with this motionkit yet: pass --policy RUN_DIR (a "

@@ -35,7 +35,9 @@ from motionkit.train.env import Env
 from motionkit.train.evaluate import evaluate, save_rollout
 from motionkit.train.learner import Carry, Learner, Trainer
 from motionkit.train.metrics_log import MetricsLog
+from motionkit.train.policy import Policy
 from motionkit.train.priors import load_priors
+from motionkit.train.warm_start import init_from_policy
 
 PHYSICS = {
     "jax": "MJX (JAX)",
@@ -95,6 +97,7 @@ def train(
     *,
     resume: bool = False,
     jets_at_rest: bool = False,
+    init_from: Policy | None = None,
     progress: Progress = silent,
     stop: Callable[[dict[str, float]], bool] | None = None,
 ) -> dict[str, Any]:
@@ -112,8 +115,12 @@ def train(
         robot: the robot to train.
         resume: continue the run in `out` from its checkpoint; False needs a folder without
             one.
-        jets_at_rest: on resuming, set the policy's jet outputs to the rest action (for a
-            checkpoint trained with another jet action, `Trainer.jets_at_rest`).
+        jets_at_rest: on resuming (or with `init_from`), set the policy's jet outputs to the
+            rest action (for a policy trained with another jet action,
+            `Trainer.jets_at_rest`).
+        init_from: a new run starts with this policy's actor and observation normaliser
+            (`motionkit.train.warm_start`; a flat-ground policy widened to a terrain's height
+            map); not with `resume`.
         progress: called with each line of progress.
         stop: called with each evaluation's figures; True ends the run early.
 
@@ -126,8 +133,10 @@ def train(
             `resume`, an `out` that holds files motionkit did not write, or a config, jet
             model or prior clips the robot cannot train with.
     """
+    if resume and init_from is not None:
+        raise TrainError("a resumed run goes on from its checkpoint: init_from is for new runs")
     session = _Session(config, Path(out), robot, progress)
-    session.open(resume, jets_at_rest)
+    session.open(resume, jets_at_rest, init_from)
     session.loop(stop)
     return session.close()
 
@@ -141,8 +150,9 @@ class _Session:
         self.last: dict[str, float] = {}
         self.evaluation: dict[str, float] = {}
         self.evaluated_at = -1
+        self.window: list[dict[str, float]] = []  # training figures since the last evaluation
 
-    def open(self, resume: bool, jets_at_rest: bool) -> None:
+    def open(self, resume: bool, jets_at_rest: bool, init_from: Policy | None = None) -> None:
         """Check the folder, build the trainer of the run's stage and its learner (restored
         when resuming); nothing is written before the checks pass."""
         out, checkpoint = self.out, self.out / NAME
@@ -155,6 +165,8 @@ class _Session:
         self.stage = saved or curriculum.CurriculumState()
         config, self.trainer, self.priors = build_trainer(self.stage_config(), self.robot)
         self.learner, self.carry = self.trainer.init(config.run.seed)
+        if init_from is not None:
+            self._init_from(init_from, jets_at_rest)
         slim = False
         if resume:  # checked before anything is written
             restored, slim = load_checkpoint(checkpoint, self.learner)
@@ -176,6 +188,16 @@ class _Session:
         if self.log.note:
             self.progress(self.log.note)
         self._report_setup()
+
+    def _init_from(self, policy: Policy, jets_at_rest: bool) -> None:
+        """The fresh learner with `policy`'s actor (checked before anything is written)."""
+        env = self.trainer.env
+        learner = init_from_policy(jax.device_get(self.learner), policy, env.obs_size, env.chi_size)
+        if jets_at_rest:
+            learner = self.trainer.jets_at_rest(learner)
+        self.learner = self.trainer.replicate(learner)
+        widened = " (widened to the height map)" if policy.obs_size != env.obs_size else ""
+        self.progress(f"the actor starts from {policy.source}{widened}")
 
     @property
     def iteration(self) -> int:
@@ -241,7 +263,10 @@ class _Session:
             evaluated = (run.eval_every and iteration % run.eval_every == 0) or final
             if evaluated:
                 self._evaluate()
-            switched = self._advance_stage(self.evaluation if evaluated else None)
+            figures = curriculum.goal_figures(self.evaluation, self.window) if evaluated else None
+            switched = self._advance_stage(figures)
+            if evaluated:
+                self.window = []
             if iteration % run.checkpoint_every == 0 or final or switched:
                 self._save()
             if switched:
@@ -267,6 +292,7 @@ class _Session:
             phases["update"] = seconds - sum(phases.values())
             self.last |= {f"seconds_{name}": value for name, value in phases.items()}
         self.log.write("train", self.iteration, self.last)
+        self.window.append(self.last)
 
     def _evaluate(self) -> None:
         self.evaluation = _evaluate(

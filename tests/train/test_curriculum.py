@@ -13,7 +13,13 @@ import pytest
 from motionkit import recipes
 from motionkit.core.errors import TrainError
 from motionkit.train.config import TrainConfig
-from motionkit.train.curriculum import CurriculumState, advance, read_state, write_state
+from motionkit.train.curriculum import (
+    CurriculumState,
+    advance,
+    goal_figures,
+    read_state,
+    write_state,
+)
 
 STAGES = """
 [priors.walk]
@@ -93,8 +99,25 @@ def test_a_stage_ends_when_its_goals_hold_or_its_iterations_run_out() -> None:
     # without goals met, max_iterations ends the stage
     state, why = advance(config, CurriculumState(since=100), 110, missed)
     assert (state.stage, why) == (1, "10 iterations in the stage")
-    with pytest.raises(TrainError, match="no such evaluation figure"):
+    with pytest.raises(TrainError, match="no such evaluation or training figure"):
         advance(config, CurriculumState(), 1, {"eval_speed": 1.0})
+
+
+def test_a_goal_on_a_training_figure_uses_its_mean_since_the_last_evaluation() -> None:
+    nan = float("nan")
+    window = [{"falls_per_episode": 0.3, "speed": nan}, {"falls_per_episode": 0.1, "speed": nan}]
+    figures = goal_figures({"eval_falls_per_episode": 0.0}, window)
+    assert figures["eval_falls_per_episode"] == 0.0
+    assert figures["falls_per_episode"] == pytest.approx(0.2)  # (0.3 + 0.1) / 2
+    assert figures["speed"] != figures["speed"]  # no finite value: nan, a goal never met
+    config = config_of(STAGES.replace("eval_falls_per_episode", "falls_per_episode"))
+    met = {"eval_waypoints_per_episode": 2.5}
+    state, why = advance(config, CurriculumState(since=195, held=1), 200, goal_figures(met, window))
+    assert (state.stage, why) == (0, "")  # 0.2 > 0.1
+    window = [{"falls_per_episode": 0.1}, {"falls_per_episode": 0.05}]
+    state, why = advance(config, CurriculumState(since=195, held=1), 200, goal_figures(met, window))
+    assert state.stage == 1
+    assert why == "goals met: eval_waypoints_per_episode 2.5 >= 2, falls_per_episode 0.075 <= 0.1"
 
 
 def test_the_state_round_trips_and_must_match_the_curriculum(tmp_path: Path) -> None:

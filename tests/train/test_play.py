@@ -360,3 +360,23 @@ def test_evaluate_repeats_the_runs_evaluation_and_tries_noise(run_folder: Path, 
     # every waypoint in the air, then none: the other kind's share has no steps to count
     assert np.isnan(figures("--air-share", "1")["airborne_share_to_ground"])
     assert np.isnan(figures("--air-share", "0")["airborne_share_to_air"])
+
+
+def test_the_default_policy_is_the_only_one_or_walk_fly(tmp_path: Path, monkeypatch) -> None:
+    from motionkit.train import policy as policy_module
+
+    def ship(*names: str) -> Path:
+        folder = tmp_path / "-".join(names)
+        for name in names:
+            (folder / name).mkdir(parents=True)
+            (folder / name / policy_module.PARAMS).write_bytes(b"")
+        monkeypatch.setattr(policy_module, "SHIPPED", folder)
+        return folder
+
+    folder = ship("walk_fly_jets")
+    assert policy_module.default_policy() == folder / "walk_fly_jets"
+    folder = ship("walk_fly", "walk_fly_jets")
+    assert policy_module.default_policy() == folder / "walk_fly"
+    ship("a", "b")
+    with pytest.raises(TrainError, match=r"several policies ship \(a, b\)"):
+        policy_module.default_policy()
