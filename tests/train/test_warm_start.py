@@ -83,7 +83,7 @@ def test_a_flat_policy_starts_a_terrain_run_acting_as_before(tiny_config, robot)
             started.policy["params"][name]["kernel"], layers[name]["kernel"]
         )
     # an actor of other hidden layers does not fit
-    other = replace(tiny_config, ppo=replace(tiny_config.ppo, actor_hidden=[8]))
+    other = replace(tiny_config, ppo=replace(tiny_config.ppo, actor_hidden=(8,)))
     _, small, _ = build_trainer(other, robot, with_priors=False)
     small_learner, _ = small.init(0)
     with pytest.raises(TrainError, match="its actor's layer 0 is"):
