@@ -96,6 +96,16 @@ def test_the_model_steps_at_its_own_rate_here(robot, tiny_config) -> None:
     assert env.jets.steps == 2 and env.jets.params.dt == 0.01 and env.jets.params.delay == 3
 
 
+def run_actions(env, state, step) -> tuple[list[np.ndarray], list[bool]]:
+    """The thrust after each step of `actions(env)` from `state`, and whether it ended."""
+    thrusts, done = [], []
+    for action in actions(env):
+        state, info = step(state, jnp.asarray(action))
+        thrusts.append(np.asarray(state.thrust))
+        done.append(bool(info.done[0]))
+    return thrusts, done
+
+
 @slow
 def test_mujoco_backend_thrust_is_the_free_run(robot, tiny_config) -> None:
     from motionkit.train.env import Env
@@ -106,12 +116,7 @@ def test_mujoco_backend_thrust_is_the_free_run(robot, tiny_config) -> None:
     physics = BatchPhysics(env, 1, threads=1)
     step = stepper(env, [physics])
     state = idling(env, physics.reset(jax.random.split(jax.random.key(0), 1)))
-    thrusts, done = [], []
-    for action in actions(env):
-        state, info = step(state, jnp.asarray(action))
-        thrusts.append(np.asarray(state.thrust))
-        done.append(bool(info.done[0]))
-    check(thrusts, done, env)
+    check(*run_actions(env, state, step), env)
 
 
 @slow
@@ -122,12 +127,7 @@ def test_mjx_backend_thrust_is_the_free_run(robot, tiny_config) -> None:
     env = Env(robot, jet_config(tiny_config, "jax"), jet_model=model)
     reset, step = jax.jit(jax.vmap(env.reset)), jax.jit(jax.vmap(env.step))
     state = idling(env, reset(jax.random.split(jax.random.key(0), 1)))
-    thrusts, done = [], []
-    for action in actions(env):
-        state, info = step(state, jnp.asarray(action))
-        thrusts.append(np.asarray(state.thrust))
-        done.append(bool(info.done[0]))
-    check(thrusts, done, env)
+    check(*run_actions(env, state, step), env)
 
 
 def test_other_control_rates_resample_the_model() -> None:
