@@ -292,7 +292,8 @@ class _Session:
             phases["update"] = seconds - sum(phases.values())
             self.last |= {f"seconds_{name}": value for name, value in phases.items()}
         self.log.write("train", self.iteration, self.last)
-        self.window.append(self.last)
+        if self.recipe.curriculum:  # (goals read it; a run without stages keeps none)
+            self.window.append(self.last)
 
     def _evaluate(self) -> None:
         self.evaluation = _evaluate(
